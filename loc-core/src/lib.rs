@@ -1,0 +1,37 @@
+//! # loc-core: drift-free 2D-lidar localisation in smooth mining tunnels
+//!
+//! The allocation-free core that keeps a vehicle localised from 2D lidar scans, wheel
+//! odometry and a stored map of tunnel walls and passive landmarks (Torres-Torriti et al.,
+//! "Passive Landmark Geometry Optimization and Evaluation for Reliable Autonomous Navigation
+//! in Mining Tunnels Using 2D Lidars").
+//!
+//! ## Frames
+//! - **sensor**: origin at the lidar's optical centre, x along the beam at angle 0.
+//! - **vehicle**: origin at the vehicle reference point, x forward, y left. The sensor's
+//!   mounting pose is given in this frame.
+//! - **world**: the map's frame, metres.
+//!
+//! All lengths are metres (`_m`), all angles radians (`_rad`), `f32` throughout: the target
+//! MCU (Cortex-M4F) has a single-precision FPU. Every transcendental function goes through
+//! [`math`] so host tests compute exactly what the MCU computes.
+//!
+//! ## Guarantees
+//! `#![no_std]`, no `alloc`, `#![forbid(unsafe_code)]`; clippy denies `unwrap`, `expect`,
+//! `panic!` and slice indexing outside tests, so no input can make the core panic.
+#![no_std]
+#![forbid(unsafe_code)]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing,
+        clippy::unreachable,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
+
+pub mod geometry;
+pub mod math;
