@@ -34,4 +34,5 @@
 )]
 
 pub mod geometry;
+pub mod map;
 pub mod math;

@@ -1,0 +1,73 @@
+//! What the estimator asks of a map: the nearest geometry to a point, and ray casts.
+//!
+//! Stripping, matching and the filter are written against [`MapQuery`], not against the
+//! concrete stored map, so they work with any map that answers these questions (the
+//! fixed-capacity stored map on the MCU, a larger one on the host).
+
+use crate::geometry::{Point2, Segment, SegmentProjection};
+
+/// What a piece of map geometry is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeatureKind {
+    /// The tunnel's left wall (left of the direction of increasing chainage).
+    LeftWall,
+    /// The tunnel's right wall.
+    RightWall,
+    /// A passive landmark; `id` is its index in the map's landmark table.
+    Landmark {
+        /// Index of the landmark in the map.
+        id: u16,
+    },
+}
+
+impl FeatureKind {
+    /// True for landmark geometry.
+    #[inline]
+    pub fn is_landmark(self) -> bool {
+        matches!(self, FeatureKind::Landmark { .. })
+    }
+}
+
+/// The map geometry nearest to a query point (world frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapHit {
+    /// The nearest segment, world frame, metres.
+    pub segment: Segment,
+    /// What the segment belongs to.
+    pub kind: FeatureKind,
+    /// Projection of the query point onto `segment` (closest point, distance, normal).
+    pub projection: SegmentProjection,
+}
+
+/// Where a ray first meets map geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RayHit {
+    /// Distance from the ray origin to the hit, metres.
+    pub range_m: f32,
+    /// The hit point, world frame.
+    pub point: Point2,
+    /// What was hit.
+    pub kind: FeatureKind,
+}
+
+/// The queries the estimator makes against a map. All inputs and outputs are in the world
+/// frame, metres and radians. Implementations must be bounded in time (a spatial index, not
+/// a scan of the whole map) and must never panic, whatever the input (NaN included: a
+/// non-finite query returns `None`).
+pub trait MapQuery {
+    /// The segment nearest to `p` among those within `max_distance_m`, or `None`.
+    fn nearest(&self, p: Point2, max_distance_m: f32) -> Option<MapHit>;
+
+    /// The first geometry a ray from `origin` at heading `angle_rad` meets within
+    /// `max_range_m`, or `None`.
+    fn raycast(&self, origin: Point2, angle_rad: f32, max_range_m: f32) -> Option<RayHit>;
+
+    /// Calls `f` once for every landmark segment with any part within `radius_m` of
+    /// `center` (a landmark with several segments calls `f` for each of them).
+    fn for_each_landmark_segment_near(
+        &self,
+        center: Point2,
+        radius_m: f32,
+        f: &mut dyn FnMut(u16, Segment),
+    );
+}
