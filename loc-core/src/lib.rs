@@ -36,3 +36,4 @@
 pub mod geometry;
 pub mod map;
 pub mod math;
+pub mod rng;
