@@ -37,3 +37,4 @@ pub mod geometry;
 pub mod map;
 pub mod math;
 pub mod rng;
+pub mod scan;
