@@ -1,0 +1,80 @@
+//! The board abstraction: what the application needs from the hardware, and one module per
+//! supported board.
+//!
+//! The application (benchmark, self-tests, controller loop) is written against [`Board`]
+//! only. Exactly one board is compiled in, chosen by a cargo feature:
+//!
+//! | feature | board | UART | counter | log transport |
+//! |---|---|---|---|---|
+//! | `board-mps2-an386` (default) | QEMU MPS2 AN386, Cortex-M4F | CMSDK UART0 | SysTick under `-icount shift=0` (instructions) | defmt over semihosting |
+//! | `board-nucleo-h743zi` | ST NUCLEO-H743ZI2, STM32H743ZI Cortex-M7 | USART3 (ST-LINK VCP) | DWT CYCCNT (core cycles) | defmt over RTT |
+
+#[cfg(all(feature = "board-mps2-an386", feature = "board-nucleo-h743zi"))]
+compile_error!(
+    "select exactly one board: build the STM32 board with \
+     `--no-default-features --features board-nucleo-h743zi`"
+);
+
+#[cfg(feature = "board-mps2-an386")]
+pub mod mps2_an386;
+#[cfg(feature = "board-mps2-an386")]
+pub use mps2_an386::Mps2An386 as SelectedBoard;
+
+#[cfg(feature = "board-nucleo-h743zi")]
+pub mod nucleo_h743zi;
+#[cfg(feature = "board-nucleo-h743zi")]
+pub use nucleo_h743zi::NucleoH743zi as SelectedBoard;
+
+/// How the process ends: the status a test harness (QEMU, probe-rs) sees.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum ExitStatus {
+    /// Everything passed; QEMU exits with status 0.
+    Success,
+    /// A test failed, a budget was exceeded, or the firmware panicked / faulted; QEMU exits
+    /// with status 1.
+    Failure,
+}
+
+/// What the unit of [`Board::counter_now`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum CounterUnit {
+    /// Executed instructions (QEMU with `-icount shift=0`: one instruction per virtual ns).
+    Instructions,
+    /// Core clock cycles (real silicon: DWT CYCCNT).
+    Cycles,
+}
+
+/// What the application needs from a board.
+pub trait Board {
+    /// The serial port that carries lidar bytes in and pose frames out. It speaks
+    /// `embedded-io`, the interface `lidar-driver`'s no_std session is generic over:
+    /// `read` blocks for at least one byte, `read_ready` tells whether it would block.
+    type Serial: embedded_io::Read + embedded_io::Write + embedded_io::ReadReady;
+
+    /// Human-readable board name, for logs.
+    const NAME: &'static str;
+    /// Unit of [`Board::counter_now`].
+    const COUNTER_UNIT: CounterUnit;
+
+    /// Takes the peripherals and sets the board up; `None` when called a second time (the
+    /// peripherals are singletons).
+    fn take() -> Option<Self>
+    where
+        Self: Sized;
+
+    /// The serial port wired to the lidar and the pose consumer.
+    fn serial(&mut self) -> &mut Self::Serial;
+
+    /// A monotonic 64-bit count of [`Board::COUNTER_UNIT`] since start-up. The resolution is
+    /// board-specific ([`Board::COUNTER_RESOLUTION`]); differences of two reads measure the
+    /// code between them.
+    fn counter_now(&self) -> u64;
+
+    /// Resolution of [`Board::counter_now`] in its unit (40 instructions on QEMU mps2-an386,
+    /// where SysTick ticks at 25 MHz against a 1 GHz virtual instruction clock).
+    const COUNTER_RESOLUTION: u64;
+
+    /// Ends the program with `status` (QEMU: semihosting exit; hardware: breakpoint so the
+    /// attached probe-rs session stops, then a loop).
+    fn exit(status: ExitStatus) -> !;
+}

@@ -1,0 +1,61 @@
+//! QEMU's MPS2 AN386 board (Cortex-M4F with FPU): the board CI runs the firmware on.
+//!
+//! Memory (QEMU `-machine mps2-an386`): 4 MiB "flash" (SSRAM1) at `0x0000_0000`, 4 MiB RAM
+//! (SSRAM2/3) at `0x2000_0000` (`memory/mps2-an386.x`). The processor and peripheral clock is
+//! 25 MHz. Run with
+//! `qemu-system-arm -machine mps2-an386 -nographic -semihosting-config enable=on,target=native -icount shift=0 -kernel ELF`.
+
+mod cmsdk_uart;
+mod semihosting_exit;
+mod systick_counter;
+
+pub use cmsdk_uart::{CmsdkUart, UartError};
+pub use systick_counter::{SysTickCounter, INSTRUCTIONS_PER_TICK};
+
+use super::{Board, CounterUnit, ExitStatus};
+
+// The defmt global logger: frames go to the host over semihosting stdout, decoded there by
+// `defmt-print -e ELF`.
+use defmt_semihosting as _;
+
+/// Base address of UART0 (CMSDK APB UART) on MPS2 AN385/AN386.
+pub const UART0_BASE: usize = 0x4000_4000;
+/// Peripheral clock of the MPS2 FPGA images, Hz (UART baud divisor reference).
+pub const PCLK_HZ: u32 = 25_000_000;
+/// UART0 line rate, baud (QEMU ignores it, but the divisor must be at least 16 to transmit).
+pub const UART0_BAUD: u32 = 115_200;
+
+/// The MPS2 AN386 board: UART0 and the SysTick instruction counter.
+pub struct Mps2An386 {
+    uart0: CmsdkUart,
+    counter: SysTickCounter,
+}
+
+impl Board for Mps2An386 {
+    type Serial = CmsdkUart;
+    const NAME: &'static str = "mps2-an386 (QEMU, Cortex-M4F)";
+    const COUNTER_UNIT: CounterUnit = CounterUnit::Instructions;
+    const COUNTER_RESOLUTION: u64 = INSTRUCTIONS_PER_TICK;
+
+    /// Sets up UART0 (115200 8N1, TX and RX enabled) and the SysTick counter.
+    fn take() -> Option<Self> {
+        let cp = cortex_m::Peripherals::take()?;
+        // SAFETY: UART0_BASE is the CMSDK UART0 of this board; `Peripherals::take` above
+        // succeeded, so this is the only place the board (and its UART) is constructed.
+        let uart0 = unsafe { CmsdkUart::new(UART0_BASE, PCLK_HZ, UART0_BAUD) };
+        let counter = SysTickCounter::start(cp.SYST);
+        Some(Self { uart0, counter })
+    }
+
+    fn serial(&mut self) -> &mut CmsdkUart {
+        &mut self.uart0
+    }
+
+    fn counter_now(&self) -> u64 {
+        self.counter.instructions()
+    }
+
+    fn exit(status: ExitStatus) -> ! {
+        semihosting_exit::exit(status)
+    }
+}

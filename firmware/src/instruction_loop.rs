@@ -1,0 +1,26 @@
+//! A loop of exactly known instruction count, to calibrate the board's counter.
+//!
+//! Under QEMU `-icount shift=0` the SysTick tick is documented as 40 instructions; this
+//! loop lets the self-tests and the benchmark check that figure instead of trusting it.
+
+/// Instructions executed per iteration of [`run`]'s loop body (`nop; nop; subs; bne`).
+pub const INSTRUCTIONS_PER_ITERATION: u64 = 4;
+
+/// Executes `iterations` × [`INSTRUCTIONS_PER_ITERATION`] instructions (plus a fixed
+/// handful of set-up instructions) and returns. `iterations` must be at least 1.
+#[inline(never)]
+pub fn run(iterations: u32) {
+    let n = iterations.max(1);
+    // SAFETY: pure register arithmetic on a scratch register; no memory access, no stack.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            "nop",
+            "nop",
+            "subs {n}, {n}, #1",
+            "bne 2b",
+            n = inout(reg) n => _,
+            options(nomem, nostack),
+        );
+    }
+}

@@ -1,0 +1,78 @@
+//! The pose output frame: what the controller sends to the vehicle computer after each scan.
+//!
+//! Wire format: the [`PoseFrame`] struct serialised with `postcard` (varint integers, f32
+//! little-endian), then COBS-encoded and terminated by a `0x00` byte, so a reader that
+//! starts mid-stream resynchronises on the next zero. At most [`MAX_FRAME_BYTES`] bytes.
+
+use serde::{Deserialize, Serialize};
+
+/// Upper bound on an encoded frame, bytes (postcard worst case for the fields plus the COBS
+/// overhead and the terminating zero).
+pub const MAX_FRAME_BYTES: usize = 96;
+
+/// Localiser status as sent on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, defmt::Format)]
+pub enum PoseStatus {
+    /// The last scan matched and updated the estimate.
+    Tracking,
+    /// The last scan could not be used (or did not constrain every direction): the pose is
+    /// carried by odometry in the unobserved directions.
+    OdometryOnly,
+    /// No pose yet (waiting for an initial pose or the first match).
+    NotInitialised,
+}
+
+/// One pose estimate, world frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, defmt::Format)]
+pub struct PoseFrame {
+    /// Scan sequence number (the scanner's telegram counter, or a local count).
+    pub sequence: u32,
+    /// Vehicle x in the world frame, metres.
+    pub x_m: f32,
+    /// Vehicle y in the world frame, metres.
+    pub y_m: f32,
+    /// Vehicle heading in the world frame, radians in `(-π, π]`.
+    pub theta_rad: f32,
+    /// Upper triangle of the 3×3 covariance of (x, y, θ), row major:
+    /// `[σxx, σxy, σxθ, σyy, σyθ, σθθ]`, units m², m², m·rad, m², m·rad, rad².
+    pub covariance_upper: [f32; 6],
+    /// What the estimate rests on.
+    pub status: PoseStatus,
+}
+
+/// Why a frame could not be encoded or decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum FrameError {
+    /// The output buffer is shorter than the frame: pass a buffer of [`MAX_FRAME_BYTES`].
+    BufferTooSmall,
+    /// The bytes are not a valid COBS/postcard pose frame (corrupted or truncated on the
+    /// line): drop them and wait for the next `0x00` delimiter.
+    Malformed,
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::BufferTooSmall => {
+                write!(f, "output buffer too small: pass at least {MAX_FRAME_BYTES} bytes")
+            }
+            FrameError::Malformed => f.write_str(
+                "malformed pose frame: drop the bytes and resynchronise on the next 0x00",
+            ),
+        }
+    }
+}
+
+impl PoseFrame {
+    /// Encodes the frame into `buf` (postcard + COBS + `0x00` terminator); returns the used
+    /// prefix of `buf`.
+    pub fn encode<'b>(&self, buf: &'b mut [u8]) -> Result<&'b mut [u8], FrameError> {
+        postcard::to_slice_cobs(self, buf).map_err(|_| FrameError::BufferTooSmall)
+    }
+
+    /// Decodes one frame from `frame` (COBS bytes up to and including the `0x00`); the
+    /// buffer is decoded in place.
+    pub fn decode(frame: &mut [u8]) -> Result<Self, FrameError> {
+        postcard::from_bytes_cobs(frame).map_err(|_| FrameError::Malformed)
+    }
+}

@@ -1,0 +1,28 @@
+//! The recorded replay data, embedded in flash: synthetic LMS511 scans as the raw u16
+//! millimetre ranges the driver delivers, and the true poses they were taken at.
+//!
+//! Generated on the host at build time by `build/record.rs`.
+
+mod generated {
+    include!(concat!(env!("OUT_DIR"), "/recording.rs"));
+}
+
+pub use generated::{BEAMS_PER_SCAN, SCAN_COUNT, TRUE_POSES};
+
+/// The scans, back to back: `SCAN_COUNT × BEAMS_PER_SCAN` little-endian u16, millimetres,
+/// 0 = no echo.
+static SCANS_MM_LE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/scans_mm.bin"));
+
+/// Copies scan `index`'s raw ranges (mm) into `out`; returns false when `index` is out of
+/// range (`out` untouched).
+pub fn load_scan_mm(index: usize, out: &mut [u16; BEAMS_PER_SCAN]) -> bool {
+    let bytes_per_scan = BEAMS_PER_SCAN * 2;
+    let Some(bytes) = SCANS_MM_LE.get(index * bytes_per_scan..(index + 1) * bytes_per_scan)
+    else {
+        return false;
+    };
+    for (slot, pair) in out.iter_mut().zip(bytes.chunks_exact(2)) {
+        *slot = u16::from_le_bytes([pair[0], pair[1]]);
+    }
+    true
+}
