@@ -38,3 +38,4 @@ pub mod map;
 pub mod math;
 pub mod rng;
 pub mod scan;
+pub mod strip;
