@@ -14,6 +14,7 @@
 pub mod board;
 pub mod fault;
 pub mod instruction_loop;
+pub mod math_costs;
 pub mod pipeline;
 pub mod pose_frame;
 pub mod recorded;

@@ -42,6 +42,10 @@ fn main() -> ! {
         SelectedBoard::COUNTER_RESOLUTION
     );
 
+    for cost in firmware::math_costs::measure_all(&board) {
+        defmt::println!("math {=str}: {=u64} instructions per call", cost.name, cost.per_call);
+    }
+
     let Some(scan) = cortex_m::singleton!(: Scan = Scan::new()) else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
