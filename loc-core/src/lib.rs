@@ -34,6 +34,7 @@
 )]
 
 pub mod geometry;
+pub mod landmark;
 pub mod map;
 pub mod math;
 pub mod rng;
