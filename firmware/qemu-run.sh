@@ -5,7 +5,7 @@
 #   usage: qemu-run.sh ELF   (env: QEMU_TIMEOUT_S, default 120; QEMU_SERIAL, default null)
 set -euo pipefail
 elf=$1
-timeout "${QEMU_TIMEOUT_S:-120}" qemu-system-arm \
+timeout "${QEMU_TIMEOUT_S:-300}" qemu-system-arm \
   -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \
   -icount shift=0 \

@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# Builds the firmware for QEMU mps2-an386 (release), runs the on-target self-tests and the
+# instruction-count benchmark under QEMU, and checks the result:
+#   - selftest: every test passes, and the bytes it sent on UART0 arrive on the host;
+#   - bench: the end-to-end pipeline stays within its instruction budget per scan.
+# Prints the per-stage instruction counts, a cargo-style `test result:` line (summed by
+# scripts/test-all.sh) and `N passed, N failed`. Exits non-zero on any failure.
+# Needs: qemu-system-arm (scripts/setup.sh) and defmt-print (installed here if missing).
+set -uo pipefail
+cd "$(dirname "$0")"
+
+DEFMT_PRINT_VERSION=1.2.0
+QEMU_TIMEOUT_S=${QEMU_TIMEOUT_S:-300}
+target_dir=${CARGO_TARGET_DIR:-$PWD/target}
+elf_dir=$target_dir/thumbv7em-none-eabihf/release
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+passed=0
+failed=0
+pass() { passed=$((passed + 1)); echo "ok: $1"; }
+fail() { failed=$((failed + 1)); echo "FAILED: $1"; }
+
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  echo "qemu-system-arm not found: run scripts/setup.sh first" >&2
+  exit 1
+fi
+if ! command -v defmt-print >/dev/null 2>&1; then
+  echo "installing defmt-print $DEFMT_PRINT_VERSION (decodes the firmware's defmt log)"
+  cargo install defmt-print --locked --version "$DEFMT_PRINT_VERSION" --quiet || exit 1
+fi
+
+# Runs ELF under QEMU with the instruction-counting clock, UART0 captured to $2, and prints
+# the decoded defmt log. Status: the firmware's semihosting exit (0 ok, 1 failure), 124 timeout.
+run_qemu() {
+  local elf=$1 uart=$2
+  timeout "$QEMU_TIMEOUT_S" qemu-system-arm \
+    -machine mps2-an386 -nographic \
+    -semihosting-config enable=on,target=native \
+    -icount shift=0 \
+    -serial "file:$uart" \
+    -kernel "$elf" >"$work/raw.defmt"
+  local status=$?
+  defmt-print -e "$elf" <"$work/raw.defmt" || status=${status:-1}
+  return $status
+}
+
+echo "--> build (release, thumbv7em-none-eabihf, board mps2-an386)"
+if cargo build --release --locked --bins; then pass "build"; else fail "build"; fi
+echo "--> clippy (firmware, -D warnings)"
+if cargo clippy --release --locked --bins -- -D warnings; then pass "clippy"; else fail "clippy"; fi
+
+echo "--> selftest under QEMU"
+if [ -x "$elf_dir/selftest" ]; then
+  run_qemu "$elf_dir/selftest" "$work/uart0.bin" | tee "$work/selftest.log"
+  status=${PIPESTATUS[0]}
+  # The test binary's own counts become part of this script's count.
+  read -r st_pass st_fail < <(grep -E '^[0-9]+ passed, [0-9]+ failed$' "$work/selftest.log" \
+    | tail -1 | sed -E 's/^([0-9]+) passed, ([0-9]+) failed$/\1 \2/')
+  if [ "$status" -eq 0 ] && [ -n "${st_pass:-}" ] && [ "${st_fail:-1}" -eq 0 ]; then
+    passed=$((passed + st_pass))
+  else
+    echo "FAILED: selftest (QEMU status $status)"
+    failed=$((failed + ${st_fail:-0}))
+    [ "${st_fail:-0}" -eq 0 ] && failed=$((failed + 1))
+    passed=$((passed + ${st_pass:-0}))
+  fi
+  # The UART0 bytes the firmware sent must be the frame it logged.
+  logged=$(sed -nE 's/^ *uart0 frame [0-9]+ bytes: \[(.*)\]$/\1/p' "$work/selftest.log" | tr -d ', ')
+  received=$(od -An -v -tx1 "$work/uart0.bin" 2>/dev/null | tr -d ' \n')
+  if [ -n "$logged" ] && [ "$logged" = "$received" ]; then
+    pass "uart0 bytes on the host match the frame the firmware sent"
+  else
+    fail "uart0 capture '$received' differs from the logged frame '$logged'"
+  fi
+else
+  fail "selftest ELF missing"
+fi
+
+echo "--> benchmark under QEMU (instructions per scan, budget check)"
+if [ -x "$elf_dir/bench" ]; then
+  run_qemu "$elf_dir/bench" "$work/uart0-bench.bin" | tee "$work/bench.log"
+  status=${PIPESTATUS[0]}
+  if [ "$status" -eq 0 ] && grep -q '^budget PASS' "$work/bench.log"; then
+    pass "bench within budget"
+  else
+    fail "bench (QEMU status $status; see the budget line above)"
+  fi
+else
+  fail "bench ELF missing"
+fi
+
+echo
+outcome=ok
+[ "$failed" -gt 0 ] && outcome=FAILED
+echo "test result: $outcome. $passed passed; $failed failed; 0 ignored (firmware under QEMU)"
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
