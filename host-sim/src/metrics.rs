@@ -1,0 +1,264 @@
+//! Accuracy and speed figures of a closed-loop run, against ground truth.
+//!
+//! - the paper's eq. 2: `E = 1/N Σ (x_g − x̂)² + (y_g − ŷ)² + (θ_g − θ̂)²` (m² and rad²
+//!   summed as the paper does), and its root;
+//! - position and heading RMS, maximum position error;
+//! - the error split along and across the tunnel (along the centre-line tangent at the
+//!   true position, and its normal), since a smooth tunnel leaves only the along-tunnel
+//!   direction unobservable;
+//! - position RMS over the first and the last 100 m driven, and binned against distance;
+//! - time per scan update (the localiser's, measured around its call);
+//! - the same accuracy figures for odometry alone.
+//!
+//! Samples are taken once per scan, after the localiser has processed it.
+
+use serde::Serialize;
+
+use crate::vehicle::SimPose;
+use crate::world::centerline::{wrap_pi, CenterLine};
+
+/// Distance over which the first/last-stretch figures are taken, metres.
+pub const STRETCH_M: f64 = 100.0;
+
+/// One per-scan sample of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sample {
+    /// Time, seconds since the start.
+    pub t_s: f64,
+    /// Distance driven (true), metres.
+    pub distance_m: f64,
+    /// Chainage of the true position, metres.
+    pub chainage_m: f64,
+    /// Ground truth.
+    pub truth: SimPose,
+    /// The localiser's estimate.
+    pub estimate: SimPose,
+    /// Dead reckoning from odometry alone.
+    pub odometry: SimPose,
+    /// The estimate's position standard deviations (square roots of the covariance's
+    /// diagonal), metres: `(σx, σy)`; heading σ in radians.
+    pub sigma: (f64, f64, f64),
+    /// Time the localiser took for this scan, microseconds.
+    pub update_us: f64,
+}
+
+/// Accuracy figures of one pose source (the localiser, or odometry alone).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Accuracy {
+    /// Mean of eq. 2's summand over the samples (m² + rad²).
+    pub mse_eq2: f64,
+    /// Square root of `mse_eq2`.
+    pub rms_eq2: f64,
+    /// RMS of the position error, metres.
+    pub position_rms_m: f64,
+    /// RMS of the heading error, radians.
+    pub heading_rms_rad: f64,
+    /// Largest position error, metres.
+    pub max_position_error_m: f64,
+    /// RMS of the along-tunnel error, metres.
+    pub along_rms_m: f64,
+    /// RMS of the across-tunnel error, metres.
+    pub across_rms_m: f64,
+    /// Largest along-tunnel error (absolute), metres.
+    pub max_along_error_m: f64,
+    /// Position RMS over the first 100 m driven, metres.
+    pub first_100m_position_rms_m: f64,
+    /// Position RMS over the last 100 m driven, metres.
+    pub last_100m_position_rms_m: f64,
+    /// Position error at the last sample, metres.
+    pub final_position_error_m: f64,
+}
+
+/// Position error RMS in one distance bin.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DistanceBin {
+    /// Distance driven at the bin's end, metres.
+    pub distance_m: f64,
+    /// Localiser position RMS in the bin, metres.
+    pub position_rms_m: f64,
+    /// Localiser along-tunnel error RMS in the bin, metres.
+    pub along_rms_m: f64,
+    /// Odometry-alone position RMS in the bin, metres.
+    pub odometry_position_rms_m: f64,
+}
+
+/// All figures of a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Localiser accuracy.
+    pub localizer: Accuracy,
+    /// Odometry-alone accuracy.
+    pub odometry: Accuracy,
+    /// Number of scans processed.
+    pub scans: usize,
+    /// Distance driven, metres.
+    pub distance_m: f64,
+    /// Simulated time, seconds.
+    pub sim_time_s: f64,
+    /// Mean localiser time per scan, microseconds.
+    pub mean_us_per_scan: f64,
+    /// Largest localiser time for one scan, microseconds.
+    pub max_us_per_scan: f64,
+    /// Error against distance driven.
+    pub by_distance: Vec<DistanceBin>,
+}
+
+/// Position error split `(along, across)` the tunnel at the truth's chainage.
+fn split_error(line: &CenterLine, s: &Sample, est: SimPose) -> (f64, f64) {
+    let (_, _, h) = line.pose_at(s.chainage_m);
+    let (ex, ey) = (est.x_m - s.truth.x_m, est.y_m - s.truth.y_m);
+    let (sn, cs) = h.sin_cos();
+    (ex * cs + ey * sn, -ex * sn + ey * cs)
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for x in v {
+        sum += x;
+        n += 1;
+    }
+    if n == 0 {
+        0.0
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+fn accuracy(line: &CenterLine, samples: &[Sample], pick: impl Fn(&Sample) -> SimPose) -> Accuracy {
+    if samples.is_empty() {
+        return Accuracy::default();
+    }
+    let total = samples.last().map_or(0.0, |s| s.distance_m);
+    let pos2 = |s: &Sample| {
+        let e = pick(s);
+        (e.x_m - s.truth.x_m).powi(2) + (e.y_m - s.truth.y_m).powi(2)
+    };
+    let th2 = |s: &Sample| wrap_pi(pick(s).theta_rad - s.truth.theta_rad).powi(2);
+    let n = samples.len() as f64;
+    let mse = samples.iter().map(|s| pos2(s) + th2(s)).sum::<f64>() / n;
+    let splits: Vec<(f64, f64)> = samples.iter().map(|s| split_error(line, s, pick(s))).collect();
+    Accuracy {
+        mse_eq2: mse,
+        rms_eq2: mse.sqrt(),
+        position_rms_m: rms(samples.iter().map(pos2)),
+        heading_rms_rad: rms(samples.iter().map(th2)),
+        max_position_error_m: samples.iter().map(|s| pos2(s).sqrt()).fold(0.0, f64::max),
+        along_rms_m: rms(splits.iter().map(|e| e.0 * e.0)),
+        across_rms_m: rms(splits.iter().map(|e| e.1 * e.1)),
+        max_along_error_m: splits.iter().map(|e| e.0.abs()).fold(0.0, f64::max),
+        first_100m_position_rms_m: rms(samples
+            .iter()
+            .filter(|s| s.distance_m <= STRETCH_M)
+            .map(pos2)),
+        last_100m_position_rms_m: rms(samples
+            .iter()
+            .filter(|s| s.distance_m >= total - STRETCH_M)
+            .map(pos2)),
+        final_position_error_m: samples.last().map_or(0.0, |s| pos2(s).sqrt()),
+    }
+}
+
+/// Computes every figure of a run from its per-scan samples. `bin_m` is the width of the
+/// error-against-distance bins, metres.
+pub fn compute(line: &CenterLine, samples: &[Sample], bin_m: f64) -> Metrics {
+    let scans = samples.len();
+    let distance_m = samples.last().map_or(0.0, |s| s.distance_m);
+    let mut by_distance = Vec::new();
+    let bin_m = if bin_m > 0.0 { bin_m } else { 10.0 };
+    let mut start = 0usize;
+    while start < samples.len() {
+        let bin = ((samples[start].distance_m / bin_m).floor() + 1.0) * bin_m;
+        let end = samples[start..]
+            .iter()
+            .position(|s| s.distance_m >= bin)
+            .map_or(samples.len(), |k| start + k);
+        let chunk = &samples[start..end.max(start + 1)];
+        let est = accuracy(line, chunk, |s| s.estimate);
+        let odo = accuracy(line, chunk, |s| s.odometry);
+        by_distance.push(DistanceBin {
+            distance_m: bin.min(distance_m),
+            position_rms_m: est.position_rms_m,
+            along_rms_m: est.along_rms_m,
+            odometry_position_rms_m: odo.position_rms_m,
+        });
+        start = end.max(start + 1);
+    }
+    Metrics {
+        localizer: accuracy(line, samples, |s| s.estimate),
+        odometry: accuracy(line, samples, |s| s.odometry),
+        scans,
+        distance_m,
+        sim_time_s: samples.last().map_or(0.0, |s| s.t_s),
+        mean_us_per_scan: if scans == 0 {
+            0.0
+        } else {
+            samples.iter().map(|s| s.update_us).sum::<f64>() / scans as f64
+        },
+        max_us_per_scan: samples.iter().map(|s| s.update_us).fold(0.0, f64::max),
+        by_distance,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::centerline::CurvePiece;
+
+    fn pose(x: f64, y: f64, t: f64) -> SimPose {
+        SimPose {
+            x_m: x,
+            y_m: y,
+            theta_rad: t,
+        }
+    }
+
+    #[test]
+    fn figures_from_known_errors() {
+        let line = CenterLine::from_pieces(&[CurvePiece {
+            length_m: 300.0,
+            curvature_per_m: 0.0,
+        }])
+        .unwrap();
+        // 250 samples 1 m apart; estimate 3 cm ahead and 4 cm left, heading 0.01 rad off,
+        // except the last 100 m where it is exact. Odometry 1 m behind.
+        let samples: Vec<Sample> = (0..250)
+            .map(|i| {
+                let d = f64::from(i);
+                let late = d > 150.0;
+                Sample {
+                    t_s: d,
+                    distance_m: d,
+                    chainage_m: d,
+                    truth: pose(d, 0.0, 0.0),
+                    estimate: if late {
+                        pose(d, 0.0, 0.0)
+                    } else {
+                        pose(d + 0.03, 0.04, 0.01)
+                    },
+                    odometry: pose(d - 1.0, 0.0, 0.0),
+                    sigma: (0.0, 0.0, 0.0),
+                    update_us: 100.0 + d,
+                }
+            })
+            .collect();
+        let m = compute(&line, &samples, 50.0);
+        let a = m.localizer;
+        assert!((a.first_100m_position_rms_m - 0.05).abs() < 1e-12);
+        assert!((a.last_100m_position_rms_m - 0.05 * (2.0f64 / 101.0).sqrt()).abs() < 1e-12);
+        assert!((a.max_position_error_m - 0.05).abs() < 1e-12);
+        let frac: f64 = 151.0 / 250.0;
+        assert!((a.position_rms_m - (0.0025 * frac).sqrt()).abs() < 1e-12);
+        assert!((a.mse_eq2 - (0.0025 + 0.0001) * frac).abs() < 1e-12);
+        assert!((a.along_rms_m - (0.0009 * frac).sqrt()).abs() < 1e-12);
+        assert!((a.across_rms_m - (0.0016 * frac).sqrt()).abs() < 1e-12);
+        assert!((m.odometry.along_rms_m - 1.0).abs() < 1e-12);
+        assert_eq!(m.scans, 250);
+        assert!((m.mean_us_per_scan - 224.5).abs() < 1e-9);
+        assert_eq!(m.by_distance.len(), 5);
+        assert!((m.by_distance[0].odometry_position_rms_m - 1.0).abs() < 1e-12);
+        assert_eq!(m.by_distance[4].position_rms_m, 0.0);
+        let empty = compute(&line, &[], 10.0);
+        assert_eq!(empty.scans, 0);
+        assert_eq!(empty.localizer, Accuracy::default());
+    }
+}

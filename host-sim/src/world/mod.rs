@@ -1,0 +1,331 @@
+//! The simulated tunnel: centre line, rough walls and landmarks, as two maps.
+//!
+//! - The **true geometry** is what the lidar sees: walls with roughness, landmarks as
+//!   installed (some missing, some damaged, each mounted on the rough wall). It is indexed
+//!   for ray casting ([`crate::raycast::SegmentGrid`]).
+//! - The **design** is what the localiser is given: ideal walls at ± width / 2 and every
+//!   landmark of the layout as designed. [`crate::stored_map`] turns it into loc-core's
+//!   stored map.
+//!
+//! World frame, metres, radians, `f64`.
+
+pub mod centerline;
+pub mod layout;
+pub mod roughness;
+
+use loc_core::rng::Pcg32;
+
+use crate::raycast::{SegmentGrid, Surface, WorldSegment};
+use centerline::CenterLine;
+use layout::{Condition, LayoutSpec, Placement, WallSide};
+use roughness::{RoughnessProfile, ROUGHNESS_STEP_M};
+
+/// Cell size of the ray-casting grid, metres.
+const GRID_CELL_M: f64 = 1.0;
+
+/// The tunnel's cross-section and wall texture.
+#[derive(Debug, Clone)]
+pub struct TunnelSpec {
+    /// Centre line.
+    pub centerline: CenterLine,
+    /// Wall-to-wall width, metres.
+    pub width_m: f64,
+    /// Standard deviation of the walls' deviation from the design, metres.
+    pub roughness_sigma_m: f64,
+    /// Correlation length of that deviation along the tunnel, metres.
+    pub roughness_correlation_m: f64,
+}
+
+/// A landmark's designed shape: `(along_m, height_m)` points in its local frame, `along`
+/// from −W/2 to +W/2 along the wall (direction of increasing chainage), `height` from the
+/// wall into the tunnel. From loc-core's landmark models ([`crate::landmarks`]).
+pub type Profile = Vec<(f64, f64)>;
+
+/// A generated tunnel.
+#[derive(Debug, Clone)]
+pub struct World {
+    centerline: CenterLine,
+    width_m: f64,
+    placements: Vec<Placement>,
+    profile: Profile,
+    left: RoughnessProfile,
+    right: RoughnessProfile,
+    grid: SegmentGrid,
+}
+
+impl World {
+    /// Builds the tunnel: rough walls, the landmark layout, and the ray-casting index.
+    /// `profile` is the designed landmark shape (empty: no landmarks are built, whatever
+    /// the layout says). Deterministic for a given generator state.
+    pub fn build(tunnel: &TunnelSpec, layout: &LayoutSpec, profile: Profile, rng: &mut Pcg32) -> Self {
+        let len = tunnel.centerline.length_m();
+        let left = RoughnessProfile::generate(
+            0.0,
+            len,
+            tunnel.roughness_sigma_m,
+            tunnel.roughness_correlation_m,
+            rng,
+        );
+        let right = RoughnessProfile::generate(
+            0.0,
+            len,
+            tunnel.roughness_sigma_m,
+            tunnel.roughness_correlation_m,
+            rng,
+        );
+        let placements = if profile.is_empty() {
+            Vec::new()
+        } else {
+            layout::place_landmarks(layout, rng)
+        };
+        let mut world = Self {
+            centerline: tunnel.centerline.clone(),
+            width_m: tunnel.width_m,
+            placements,
+            profile,
+            left,
+            right,
+            grid: SegmentGrid::new(Vec::new(), GRID_CELL_M),
+        };
+        world.grid = SegmentGrid::new(world.true_segments(), GRID_CELL_M);
+        world
+    }
+
+    /// The centre line.
+    pub fn centerline(&self) -> &CenterLine {
+        &self.centerline
+    }
+
+    /// Wall-to-wall width, metres.
+    pub fn width_m(&self) -> f64 {
+        self.width_m
+    }
+
+    /// The landmark layout (including missing and damaged ones).
+    pub fn placements(&self) -> &[Placement] {
+        &self.placements
+    }
+
+    /// The designed landmark shape.
+    pub fn profile(&self) -> &[(f64, f64)] {
+        &self.profile
+    }
+
+    /// The ray-casting index over the true geometry.
+    pub fn grid(&self) -> &SegmentGrid {
+        &self.grid
+    }
+
+    /// Signed lateral position of a wall: + left.
+    fn wall_lateral_m(&self, side: WallSide, rough: bool, s_m: f64) -> f64 {
+        let half = self.width_m / 2.0;
+        match side {
+            // Roughness is positive into the tunnel.
+            WallSide::Left => half - if rough { self.left.at(s_m) } else { 0.0 },
+            WallSide::Right => -half + if rough { self.right.at(s_m) } else { 0.0 },
+        }
+    }
+
+    /// A wall as a polyline (world x, y). `rough = true`: the true wall, a vertex every
+    /// [`ROUGHNESS_STEP_M`]; `false`: the design line, simplified so no dropped vertex is
+    /// more than `tolerance_m` off it (a straight wall is two points).
+    pub fn wall_polyline(&self, side: WallSide, rough: bool, tolerance_m: f64) -> Vec<(f64, f64)> {
+        let len = self.centerline.length_m();
+        let n = (len / ROUGHNESS_STEP_M).ceil().max(1.0) as usize;
+        let pts: Vec<(f64, f64)> = (0..=n)
+            .map(|i| {
+                let s = (i as f64 * ROUGHNESS_STEP_M).min(len);
+                self.centerline
+                    .offset_point(s, self.wall_lateral_m(side, rough, s))
+            })
+            .collect();
+        if rough {
+            pts
+        } else {
+            simplify(&pts, tolerance_m)
+        }
+    }
+
+    /// A landmark's polyline in world coordinates. `as_built = true`: the true landmark
+    /// (mounted on the rough wall, damage applied; empty when missing); `false`: as
+    /// designed, on the ideal wall.
+    pub fn landmark_polyline(&self, index: usize, as_built: bool) -> Vec<(f64, f64)> {
+        let Some(p) = self.placements.get(index) else {
+            return Vec::new();
+        };
+        let local: Profile = if as_built {
+            match p.condition {
+                Condition::Missing => return Vec::new(),
+                Condition::Intact => self.profile.clone(),
+                Condition::Damaged(kind) => layout::damaged_profile(&self.profile, kind),
+            }
+        } else {
+            self.profile.clone()
+        };
+        let (cx, cy, h) = self.centerline.pose_at(p.s_m);
+        let lat = self.wall_lateral_m(p.side(), as_built, p.s_m);
+        let (ax, ay) = (cx - lat * h.sin(), cy + lat * h.cos());
+        let t = (h.cos(), h.sin());
+        // Unit vector from the wall into the tunnel.
+        let inward = match p.wall {
+            WallSide::Left => (h.sin(), -h.cos()),
+            WallSide::Right => (-h.sin(), h.cos()),
+        };
+        local
+            .iter()
+            .map(|&(u, v)| (ax + u * t.0 + v * inward.0, ay + u * t.1 + v * inward.1))
+            .collect()
+    }
+
+    /// Every segment of the true geometry: rough walls and as-built landmarks.
+    pub fn true_segments(&self) -> Vec<WorldSegment> {
+        let mut out = Vec::new();
+        for (side, surface) in [
+            (WallSide::Left, Surface::LeftWall),
+            (WallSide::Right, Surface::RightWall),
+        ] {
+            let pts = self.wall_polyline(side, true, 0.0);
+            out.extend(pts.windows(2).map(|w| WorldSegment {
+                a: w[0],
+                b: w[1],
+                surface,
+            }));
+        }
+        for i in 0..self.placements.len() {
+            let pts = self.landmark_polyline(i, true);
+            out.extend(pts.windows(2).map(|w| WorldSegment {
+                a: w[0],
+                b: w[1],
+                surface: Surface::Landmark { id: i as u32 },
+            }));
+        }
+        out
+    }
+}
+
+impl Placement {
+    /// The wall this landmark is on.
+    pub fn side(&self) -> WallSide {
+        self.wall
+    }
+}
+
+/// Greedy polyline simplification: keeps a vertex only when skipping it would move some
+/// dropped point more than `tolerance_m` off the chord.
+fn simplify(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
+    let Some(&first) = pts.first() else {
+        return Vec::new();
+    };
+    let mut out = vec![first];
+    let mut anchor = 0usize;
+    let mut i = 1usize;
+    while i < pts.len() {
+        // Try to extend the chord from `anchor` to `i + 1`.
+        let candidate = i + 1;
+        if candidate >= pts.len() {
+            break;
+        }
+        let (a, b) = (pts[anchor], pts[candidate]);
+        let ok = pts[anchor + 1..candidate]
+            .iter()
+            .all(|&p| point_line_distance(p, a, b) <= tolerance_m);
+        if ok {
+            i = candidate;
+        } else {
+            out.push(pts[i]);
+            anchor = i;
+            i += 1;
+        }
+    }
+    if let Some(&last) = pts.last() {
+        if out.last() != Some(&last) {
+            out.push(last);
+        }
+    }
+    out
+}
+
+fn point_line_distance(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len = dx.hypot(dy);
+    if len < 1e-12 {
+        return (p.0 - a.0).hypot(p.1 - a.1);
+    }
+    ((p.0 - a.0) * dy - (p.1 - a.1) * dx).abs() / len
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use centerline::CurvePiece;
+    use layout::{Omission, WallChoice};
+
+    fn world(sigma: f64, curvature: f64, omission: Omission) -> World {
+        let tunnel = TunnelSpec {
+            centerline: CenterLine::from_pieces(&[CurvePiece {
+                length_m: 100.0,
+                curvature_per_m: curvature,
+            }])
+            .unwrap(),
+            width_m: 5.0,
+            roughness_sigma_m: sigma,
+            roughness_correlation_m: 0.5,
+        };
+        let layout = LayoutSpec {
+            spacing_m: 9.0,
+            first_m: 5.0,
+            last_m: 95.0,
+            walls: WallChoice::Both,
+            omission,
+            damage: None,
+        };
+        let tri = vec![(-0.2, 0.0), (0.0, 0.15), (0.2, 0.0)];
+        World::build(&tunnel, &layout, tri, &mut Pcg32::seeded(3))
+    }
+
+    #[test]
+    fn straight_design_walls_are_two_points_and_rays_see_the_walls() {
+        let w = world(0.0, 0.0, Omission::None);
+        let l = w.wall_polyline(WallSide::Left, false, 0.002);
+        assert_eq!(l.len(), 2);
+        assert!((l[0].1 - 2.5).abs() < 1e-12 && (l[1].0 - 100.0).abs() < 1e-9);
+        // Straight up from chainage 7.5 (between landmarks at 5 and ~14): the left wall.
+        let hit = w.grid().cast((7.5, 0.0), std::f64::consts::FRAC_PI_2, 80.0).unwrap();
+        assert!((hit.range_m - 2.5).abs() < 1e-9);
+        assert_eq!(hit.surface, Surface::LeftWall);
+        // Straight down at chainage 5: the right wall's first landmark tip at 2.5 − 0.15.
+        let hit = w.grid().cast((5.0, 0.0), -std::f64::consts::FRAC_PI_2, 80.0).unwrap();
+        assert!((hit.range_m - 2.35).abs() < 1e-9, "{hit:?}");
+    }
+
+    #[test]
+    fn curved_design_wall_simplifies_within_tolerance() {
+        let w = world(0.0, 1.0 / 200.0, Omission::None);
+        let l = w.wall_polyline(WallSide::Right, false, 0.002);
+        assert!(l.len() > 5 && l.len() < 200, "{}", l.len());
+    }
+
+    #[test]
+    fn missing_landmarks_are_absent_from_the_truth_only() {
+        let w = world(0.01, 0.0, Omission::EveryNth(2));
+        let missing = w
+            .placements()
+            .iter()
+            .position(|p| p.condition == Condition::Missing)
+            .unwrap();
+        assert!(w.landmark_polyline(missing, true).is_empty());
+        assert_eq!(w.landmark_polyline(missing, false).len(), 3);
+        assert!(w
+            .true_segments()
+            .iter()
+            .all(|s| s.surface != Surface::Landmark { id: missing as u32 }));
+    }
+
+    #[test]
+    fn rough_walls_deviate_by_about_sigma() {
+        let w = world(0.01, 0.0, Omission::None);
+        let rough = w.wall_polyline(WallSide::Left, true, 0.0);
+        let rms = (rough.iter().map(|p| (p.1 - 2.5).powi(2)).sum::<f64>() / rough.len() as f64).sqrt();
+        assert!(rms > 0.004 && rms < 0.02, "{rms}");
+    }
+}
