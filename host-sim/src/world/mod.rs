@@ -54,10 +54,16 @@ pub struct World {
 }
 
 impl World {
-    /// Builds the tunnel: rough walls, the landmark layout, and the ray-casting index.
-    /// `profile` is the designed landmark shape (empty: no landmarks are built, whatever
-    /// the layout says). Deterministic for a given generator state.
-    pub fn build(tunnel: &TunnelSpec, layout: &LayoutSpec, profile: Profile, rng: &mut Pcg32) -> Self {
+    /// Builds the tunnel: rough walls, the landmark layouts (placed one after the other,
+    /// e.g. one per wall), and the ray-casting index. `profile` is the designed landmark
+    /// shape (empty: no landmarks are built, whatever the layouts say). Deterministic for
+    /// a given generator state.
+    pub fn build(
+        tunnel: &TunnelSpec,
+        layouts: &[LayoutSpec],
+        profile: Profile,
+        rng: &mut Pcg32,
+    ) -> Self {
         let len = tunnel.centerline.length_m();
         let left = RoughnessProfile::generate(
             0.0,
@@ -76,7 +82,10 @@ impl World {
         let placements = if profile.is_empty() {
             Vec::new()
         } else {
-            layout::place_landmarks(layout, rng)
+            layouts
+                .iter()
+                .flat_map(|l| layout::place_landmarks(l, rng))
+                .collect()
         };
         let mut world = Self {
             centerline: tunnel.centerline.clone(),
@@ -280,7 +289,7 @@ mod tests {
             damage: None,
         };
         let tri = vec![(-0.2, 0.0), (0.0, 0.15), (0.2, 0.0)];
-        World::build(&tunnel, &layout, tri, &mut Pcg32::seeded(3))
+        World::build(&tunnel, &[layout], tri, &mut Pcg32::seeded(3))
     }
 
     #[test]

@@ -1,0 +1,581 @@
+//! A run's complete description: tunnel, landmarks, lidar, vehicle, odometry, drive and
+//! localiser settings, and the seed. Read from a TOML file (every key optional except
+//! the tunnel's shape; unknown keys are errors naming the key and line) or taken from a
+//! named scenario ([`named`]) and adjusted by command-line flags.
+//!
+//! ```toml
+//! name = "my-tunnel"
+//! seed = 7
+//! [tunnel]
+//! width_m = 5.0
+//! roughness_sigma_m = 0.01
+//! pieces = [ { length_m = 200.0 }, { length_m = 150.0, radius_m = -300.0 } ]
+//! [landmarks]
+//! model = "p1"          # none, p1..p4, f1..f4
+//! genes = [0.5, 0.25, 9.0]
+//! missing_every = 5
+//! [localizer]
+//! matcher = "hausdorff" # or "icp"
+//! ```
+
+pub mod named;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use loc_core::rng::Pcg32;
+use serde::{Deserialize, Serialize};
+
+use crate::landmarks::{LandmarkChoice, LandmarkChoiceError};
+use crate::lidar::LidarSpec;
+use crate::vehicle::odometry::OdometrySpec;
+use crate::vehicle::path_follower::DriveSpec;
+use crate::vehicle::skid_steer::SkidSteerSpec;
+use crate::world::centerline::{CenterLine, CurvePiece};
+use crate::world::layout::{Damage, DamageKind, LayoutSpec, Omission, WallChoice};
+use crate::world::{TunnelSpec, World};
+
+/// One piece of the centre line in a scenario file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PieceConfig {
+    /// Length along the curve, metres.
+    pub length_m: f64,
+    /// Turn radius, metres: positive turns left, negative right, absent is straight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
+}
+
+/// The tunnel section of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TunnelConfig {
+    /// Wall-to-wall width, metres.
+    #[serde(default = "default_width")]
+    pub width_m: f64,
+    /// Wall roughness standard deviation, metres.
+    #[serde(default = "default_roughness")]
+    pub roughness_sigma_m: f64,
+    /// Wall roughness correlation length, metres.
+    #[serde(default = "default_correlation")]
+    pub roughness_correlation_m: f64,
+    /// Centre line as constant-curvature pieces from the origin heading +x.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pieces: Vec<PieceConfig>,
+    /// Or: centre line from a CSV file of `x,y` metres (relative to the scenario file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub csv: Option<PathBuf>,
+}
+
+fn default_width() -> f64 {
+    5.0
+}
+fn default_roughness() -> f64 {
+    0.01
+}
+fn default_correlation() -> f64 {
+    1.0
+}
+
+/// How damaged landmarks are damaged, in a scenario file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DamageKindConfig {
+    /// Bent by `bend_deg`.
+    Bent,
+    /// Only `keep_fraction` of the width remains.
+    PartlyMissing,
+}
+
+/// The landmark section of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LandmarkConfig {
+    /// `none`, `p1`…`p4`, `f1`…`f4`.
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// Genes W,H,D[,h1..h6]; absent: the model's paper-optimum default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub genes: Option<Vec<f64>>,
+    /// Walls that carry landmarks: `left`, `right`, `both`.
+    #[serde(default)]
+    pub walls: WallChoice,
+    /// Chainage of the first landmark on the left wall, metres.
+    #[serde(default = "default_first")]
+    pub first_m: f64,
+    /// Start the right wall's sequence D/2 later than the left's.
+    #[serde(default = "default_true")]
+    pub stagger: bool,
+    /// Every n-th landmark of each wall is missing in the true tunnel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub missing_every: Option<u32>,
+    /// Or: each landmark is missing with this probability.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub missing_fraction: Option<f64>,
+    /// Fraction of the present landmarks that are damaged (0: none).
+    #[serde(default)]
+    pub damage_fraction: f64,
+    /// Kind of damage.
+    #[serde(default = "default_damage_kind")]
+    pub damage: DamageKindConfig,
+    /// Bend angle of bent landmarks, degrees.
+    #[serde(default = "default_bend")]
+    pub bend_deg: f64,
+    /// Remaining width fraction of partly missing landmarks.
+    #[serde(default = "default_keep")]
+    pub keep_fraction: f64,
+}
+
+fn default_model() -> String {
+    "p1".into()
+}
+fn default_first() -> f64 {
+    2.0
+}
+fn default_true() -> bool {
+    true
+}
+fn default_damage_kind() -> DamageKindConfig {
+    DamageKindConfig::Bent
+}
+fn default_bend() -> f64 {
+    15.0
+}
+fn default_keep() -> f64 {
+    0.5
+}
+
+impl Default for LandmarkConfig {
+    fn default() -> Self {
+        Self {
+            model: default_model(),
+            genes: None,
+            walls: WallChoice::Both,
+            first_m: default_first(),
+            stagger: true,
+            missing_every: None,
+            missing_fraction: None,
+            damage_fraction: 0.0,
+            damage: default_damage_kind(),
+            bend_deg: default_bend(),
+            keep_fraction: default_keep(),
+        }
+    }
+}
+
+/// Which scan matcher the localiser uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MatcherChoice {
+    /// Modified Hausdorff distance over the K best points (the paper's).
+    #[default]
+    Hausdorff,
+    /// Point-to-line ICP.
+    Icp,
+}
+
+impl MatcherChoice {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            MatcherChoice::Hausdorff => "hausdorff",
+            MatcherChoice::Icp => "icp",
+        }
+    }
+}
+
+/// The localiser section of a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LocalizerConfig {
+    /// Scan matcher.
+    pub matcher: MatcherChoice,
+    /// Standard deviation of the initial position error given to the localiser, metres
+    /// (the initial estimate is the true start pose shifted by a draw of it).
+    pub initial_sigma_m: f64,
+    /// Standard deviation of the initial heading error, radians.
+    pub initial_sigma_rad: f64,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        Self {
+            matcher: MatcherChoice::Hausdorff,
+            initial_sigma_m: 0.05,
+            initial_sigma_rad: 0.01,
+        }
+    }
+}
+
+/// A complete run description.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name for reports.
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// Seed of every random draw of the run (world, noise, slip).
+    #[serde(default)]
+    pub seed: u64,
+    /// Tunnel shape and walls.
+    pub tunnel: TunnelConfig,
+    /// Landmarks.
+    #[serde(default)]
+    pub landmarks: LandmarkConfig,
+    /// The LMS511.
+    #[serde(default)]
+    pub lidar: LidarSpec,
+    /// The loader.
+    #[serde(default)]
+    pub vehicle: SkidSteerSpec,
+    /// Its odometry.
+    #[serde(default)]
+    pub odometry: OdometrySpec,
+    /// The drive.
+    #[serde(default)]
+    pub drive: DriveSpec,
+    /// The localiser.
+    #[serde(default)]
+    pub localizer: LocalizerConfig,
+    /// Directory that relative paths in the file are relative to (not a key).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+}
+
+fn default_name() -> String {
+    "scenario".into()
+}
+
+/// Why a scenario could not be used.
+#[derive(Debug)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML for a scenario (the message names the key and line).
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// toml's message, with line, column and key.
+        message: String,
+    },
+    /// A value is out of its range.
+    Invalid {
+        /// Dotted key, e.g. `tunnel.width_m`.
+        key: &'static str,
+        /// What is wrong and what is allowed.
+        reason: String,
+    },
+    /// The landmark model or genes are wrong.
+    Landmarks(LandmarkChoiceError),
+    /// No scenario of that name.
+    UnknownName(String),
+}
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ScenarioError::Io { path, source } => {
+                write!(f, "cannot read scenario {}: {source}", path.display())
+            }
+            ScenarioError::Parse { path, message } => {
+                write!(f, "scenario {} is not valid: {message}", path.display())
+            }
+            ScenarioError::Invalid { key, reason } => write!(f, "scenario key `{key}`: {reason}"),
+            ScenarioError::Landmarks(e) => write!(f, "scenario key `landmarks`: {e}"),
+            ScenarioError::UnknownName(n) => write!(
+                f,
+                "no scenario named `{n}`: use one of {}",
+                named::NAMES.join(", ")
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ScenarioError {}
+
+impl From<LandmarkChoiceError> for ScenarioError {
+    fn from(e: LandmarkChoiceError) -> Self {
+        ScenarioError::Landmarks(e)
+    }
+}
+
+fn check(ok: bool, key: &'static str, reason: &str) -> Result<(), ScenarioError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ScenarioError::Invalid {
+            key,
+            reason: reason.to_string(),
+        })
+    }
+}
+
+impl Scenario {
+    /// Reads and validates a scenario file.
+    pub fn from_file(path: &Path) -> Result<Self, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut s = Self::from_toml(&text).map_err(|e| match e {
+            ScenarioError::Parse { message, .. } => ScenarioError::Parse {
+                path: path.to_path_buf(),
+                message,
+            },
+            other => other,
+        })?;
+        s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(s)
+    }
+
+    /// Parses and validates scenario TOML text.
+    pub fn from_toml(text: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            path: PathBuf::from("<text>"),
+            message: e.to_string(),
+        })?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The scenario as TOML (what `--out` writes next to the results, to rerun it).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Checks every value's range; the error names the key.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        let t = &self.tunnel;
+        check(t.width_m.is_finite() && t.width_m > 0.5, "tunnel.width_m", "must be a width above 0.5 m")?;
+        check(
+            t.roughness_sigma_m.is_finite() && (0.0..=0.2).contains(&t.roughness_sigma_m),
+            "tunnel.roughness_sigma_m",
+            "must lie in [0, 0.2] m",
+        )?;
+        check(
+            t.roughness_correlation_m.is_finite() && t.roughness_correlation_m >= 0.0,
+            "tunnel.roughness_correlation_m",
+            "must be ≥ 0 m",
+        )?;
+        check(
+            t.pieces.is_empty() != t.csv.is_none(),
+            "tunnel.pieces",
+            "give either `pieces` or `csv` for the centre line (exactly one)",
+        )?;
+        for p in &t.pieces {
+            check(p.length_m.is_finite() && p.length_m > 0.0, "tunnel.pieces.length_m", "must be > 0 m")?;
+            if let Some(r) = p.radius_m {
+                check(r.is_finite() && r.abs() >= 5.0, "tunnel.pieces.radius_m", "must be at least 5 m in magnitude")?;
+            }
+        }
+        let l = &self.landmarks;
+        LandmarkChoice::parse(&l.model, l.genes.as_deref())?;
+        check(l.first_m.is_finite(), "landmarks.first_m", "must be a finite chainage")?;
+        if let Some(n) = l.missing_every {
+            check(n >= 2, "landmarks.missing_every", "must be ≥ 2 (2 = every second missing)")?;
+        }
+        if let Some(f) = l.missing_fraction {
+            check((0.0..=1.0).contains(&f), "landmarks.missing_fraction", "must lie in [0, 1]")?;
+        }
+        check(
+            l.missing_every.is_none() || l.missing_fraction.is_none(),
+            "landmarks.missing_every",
+            "give missing_every or missing_fraction, not both",
+        )?;
+        check((0.0..=1.0).contains(&l.damage_fraction), "landmarks.damage_fraction", "must lie in [0, 1]")?;
+        check((0.0..=1.0).contains(&l.keep_fraction), "landmarks.keep_fraction", "must lie in [0, 1]")?;
+        check(l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0, "landmarks.bend_deg", "must lie in [-90, 90]")?;
+        let d = &self.lidar;
+        check(
+            d.range_noise_m.is_finite() && (0.0..=0.5).contains(&d.range_noise_m),
+            "lidar.range_noise_m",
+            "must lie in [0, 0.5] m",
+        )?;
+        check(d.systematic_error_m.is_finite() && d.systematic_error_m.abs() <= 0.5, "lidar.systematic_error_m", "must lie in [-0.5, 0.5] m")?;
+        check(d.max_range_m > 0.0 && d.max_range_m <= 80.0, "lidar.max_range_m", "must lie in (0, 80] m")?;
+        let v = &self.vehicle;
+        check(v.track_width_m > 0.1 && v.track_width_m.is_finite(), "vehicle.track_width_m", "must be > 0.1 m")?;
+        check(v.icr_expansion >= 1.0 && v.icr_expansion < 5.0, "vehicle.icr_expansion", "must lie in [1, 5)")?;
+        check((0.0..0.5).contains(&v.slip_mean), "vehicle.slip_mean", "must lie in [0, 0.5)")?;
+        check(v.slip_std >= 0.0 && v.slip_std < 0.2, "vehicle.slip_std", "must lie in [0, 0.2)")?;
+        let o = &self.odometry;
+        check(o.rate_hz >= 1.0 && o.rate_hz <= 1000.0, "odometry.rate_hz", "must lie in [1, 1000] Hz")?;
+        check(o.scale_error.abs() < 0.5, "odometry.scale_error", "must lie in (-0.5, 0.5)")?;
+        check(o.calibrated_icr_expansion >= 0.5 && o.calibrated_icr_expansion < 5.0, "odometry.calibrated_icr_expansion", "must lie in [0.5, 5)")?;
+        check(o.speed_noise_mps >= 0.0 && o.speed_noise_mps < 1.0, "odometry.speed_noise_mps", "must lie in [0, 1) m/s")?;
+        let r = &self.drive;
+        check(r.cruise_speed_mps > 0.0 && r.cruise_speed_mps <= 15.0, "drive.cruise_speed_mps", "must lie in (0, 15] m/s")?;
+        check(r.accel_mps2 > 0.0, "drive.accel_mps2", "must be > 0")?;
+        check(r.lateral_accel_mps2 > 0.0, "drive.lateral_accel_mps2", "must be > 0")?;
+        check(r.lateral_offset_m.abs() < t.width_m / 2.0, "drive.lateral_offset_m", "must keep the path inside the tunnel")?;
+        check(r.start_m >= 0.0 && r.start_m < r.end_m, "drive.start_m", "must be ≥ 0 and before drive.end_m")?;
+        let c = &self.localizer;
+        check(c.initial_sigma_m >= 0.0 && c.initial_sigma_m < 5.0, "localizer.initial_sigma_m", "must lie in [0, 5) m")?;
+        check(c.initial_sigma_rad >= 0.0 && c.initial_sigma_rad < 1.0, "localizer.initial_sigma_rad", "must lie in [0, 1) rad")?;
+        Ok(())
+    }
+
+    /// The landmark design.
+    pub fn landmark_choice(&self) -> Result<LandmarkChoice, ScenarioError> {
+        Ok(LandmarkChoice::parse(
+            &self.landmarks.model,
+            self.landmarks.genes.as_deref(),
+        )?)
+    }
+
+    /// The centre line (reads the CSV file if the scenario names one).
+    pub fn centerline(&self) -> Result<CenterLine, ScenarioError> {
+        if let Some(csv) = &self.tunnel.csv {
+            let path = self.base_dir.join(csv);
+            let text = std::fs::read_to_string(&path).map_err(|source| ScenarioError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            return CenterLine::parse_csv(&text).map_err(|e| ScenarioError::Invalid {
+                key: "tunnel.csv",
+                reason: e.to_string(),
+            });
+        }
+        let pieces: Vec<CurvePiece> = self
+            .tunnel
+            .pieces
+            .iter()
+            .map(|p| CurvePiece {
+                length_m: p.length_m,
+                curvature_per_m: p.radius_m.map_or(0.0, |r| 1.0 / r),
+            })
+            .collect();
+        CenterLine::from_pieces(&pieces).map_err(|e| ScenarioError::Invalid {
+            key: "tunnel.pieces",
+            reason: e.to_string(),
+        })
+    }
+
+    /// Builds the world (true geometry and design) from the scenario's seed.
+    pub fn build_world(&self) -> Result<World, ScenarioError> {
+        let centerline = self.centerline()?;
+        let choice = self.landmark_choice()?;
+        let len = centerline.length_m();
+        let tunnel = TunnelSpec {
+            centerline,
+            width_m: self.tunnel.width_m,
+            roughness_sigma_m: self.tunnel.roughness_sigma_m,
+            roughness_correlation_m: self.tunnel.roughness_correlation_m,
+        };
+        let l = &self.landmarks;
+        let omission = match (l.missing_every, l.missing_fraction) {
+            (Some(n), _) => Omission::EveryNth(n),
+            (None, Some(f)) => Omission::RandomFraction(f),
+            (None, None) => Omission::None,
+        };
+        let damage = (l.damage_fraction > 0.0).then(|| Damage {
+            fraction: l.damage_fraction,
+            kind: match l.damage {
+                DamageKindConfig::Bent => DamageKind::Bent {
+                    angle_rad: l.bend_deg.to_radians(),
+                },
+                DamageKindConfig::PartlyMissing => DamageKind::PartlyMissing {
+                    keep_fraction: l.keep_fraction,
+                },
+            },
+        });
+        let spacing = choice.spacing_m();
+        let half_width = match choice {
+            LandmarkChoice::None => 0.0,
+            LandmarkChoice::Shape(s) => f64::from(s.genome.width_m) / 2.0,
+        };
+        let mut rng = Pcg32::new(self.seed, 0x3a11);
+        let base = LayoutSpec {
+            spacing_m: spacing,
+            first_m: l.first_m,
+            last_m: len - half_width,
+            walls: l.walls,
+            omission,
+            damage,
+        };
+        let profile = choice.profile();
+        // The right wall's sequence starts D/2 later when staggered: lay out each wall on
+        // its own and merge, left first.
+        let world = if l.stagger && l.walls == WallChoice::Both {
+            let left = LayoutSpec {
+                walls: WallChoice::Left,
+                ..base
+            };
+            let right = LayoutSpec {
+                walls: WallChoice::Right,
+                first_m: l.first_m + spacing / 2.0,
+                ..base
+            };
+            World::build(&tunnel, &[left, right], profile, &mut rng)
+        } else {
+            World::build(&tunnel, &[base], profile, &mut rng)
+        };
+        Ok(world)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+name = "t"
+seed = 3
+[tunnel]
+width_m = 4.0
+pieces = [ { length_m = 50.0 }, { length_m = 30.0, radius_m = -100.0 } ]
+[landmarks]
+model = "p1"
+missing_every = 5
+[drive]
+cruise_speed_mps = 2.0
+"#;
+
+    #[test]
+    fn parses_defaults_and_builds_a_world() {
+        let s = Scenario::from_toml(GOOD).unwrap();
+        assert_eq!(s.seed, 3);
+        assert_eq!(s.lidar, LidarSpec::default());
+        let w = s.build_world().unwrap();
+        assert!((w.centerline().length_m() - 80.0).abs() < 1e-9);
+        assert!(w.placements().len() >= 14);
+        // Round trip through TOML.
+        let again = Scenario::from_toml(&s.to_toml()).unwrap();
+        assert_eq!(again, s);
+    }
+
+    #[test]
+    fn errors_name_the_key_and_line() {
+        let bad = GOOD.replace("cruise_speed_mps", "cruise_speed");
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("cruise_speed") && e.contains("line 11"), "{e}");
+        let bad = GOOD.replace("width_m = 4.0", "width_m = -4.0");
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("tunnel.width_m"), "{e}");
+        let bad = GOOD.replace("\"p1\"", "\"p7\"");
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("p7"), "{e}");
+        let bad = GOOD.replace("width_m = 4.0", "width_m = \"wide\"");
+        let e = Scenario::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("line 5") && e.contains("width_m"), "{e}");
+    }
+
+    #[test]
+    fn csv_centre_line_relative_to_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("line.csv"), "x,y\n0,0\n30,0\n60,5\n").unwrap();
+        let file = dir.path().join("s.toml");
+        std::fs::write(&file, "[tunnel]\ncsv = \"line.csv\"\n[landmarks]\nmodel = \"none\"\n").unwrap();
+        let s = Scenario::from_file(&file).unwrap();
+        let w = s.build_world().unwrap();
+        assert!(w.centerline().length_m() > 60.0);
+        assert!(w.placements().is_empty());
+        let missing = Scenario::from_file(&dir.path().join("nope.toml")).unwrap_err();
+        assert!(missing.to_string().contains("nope.toml"));
+    }
+}
