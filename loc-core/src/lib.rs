@@ -36,6 +36,7 @@
 pub mod geometry;
 pub mod landmark;
 pub mod map;
+pub mod matching;
 pub mod math;
 pub mod rng;
 pub mod scan;

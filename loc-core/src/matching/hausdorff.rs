@@ -1,0 +1,111 @@
+//! The modified-Hausdorff matcher: iteratively reweighted Gauss–Newton on the K best
+//! point-to-map distances with re-association and re-selection every iteration, and
+//! Levenberg damping on the Hausdorff cost (see the module docs of [`super`]).
+
+use super::association::{associate, select_k_best, Association};
+use super::information::{truncated_step, NormalEquations};
+use super::{apply_step, step_size, KBest, MatchConfig, MatchError, Outcome};
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+use crate::math;
+
+pub(super) fn run<M: MapQuery>(
+    map: &M,
+    points: &[Point2],
+    initial: Pose2,
+    config: &MatchConfig,
+    assoc: &mut [Association],
+) -> Result<Outcome, MatchError> {
+    let m = points.len().min(assoc.len());
+    let assoc = assoc.get_mut(..m).unwrap_or_default();
+    let k_fraction = if config.k_fraction.is_finite() {
+        config.k_fraction.clamp(0.05, 1.0)
+    } else {
+        0.8
+    };
+    let k = ((k_fraction * m as f32 + 0.5) as usize).clamp(1, m.max(1));
+    let required = usize::from(config.min_points.max(3));
+    // IRLS floor: residuals below the noise all weigh the same.
+    let delta_m = config.range_noise_sigma_m.max(1.0e-3);
+
+    let mut pose = initial;
+    let mut best: Option<(Pose2, f32, NormalEquations)> = None;
+    let mut damping = 0.0f32;
+    let mut last_step_m = f32::INFINITY;
+    let mut iterations = 0u16;
+    for it in 1..=config.max_iterations.max(1) {
+        iterations = it;
+        let associated = associate(map, points, pose, config.association_gate_m, assoc);
+        let kth = select_k_best(assoc, k).unwrap_or(config.association_gate_m);
+        let best_k = assoc.get(..k).unwrap_or_default();
+        let cost = match config.k_best {
+            KBest::TrimmedMean => best_k.iter().map(|a| a.distance_m).sum::<f32>() / k as f32,
+            KBest::KthRanked => kth,
+        };
+        let improved = best.as_ref().is_none_or(|(_, c, _)| cost <= *c);
+        if improved {
+            if associated < required {
+                if best.is_none() {
+                    return Err(MatchError::TooFewAssociations {
+                        associated: u16::try_from(associated).unwrap_or(u16::MAX),
+                        required: u16::try_from(required).unwrap_or(u16::MAX),
+                    });
+                }
+            } else {
+                let mut eq = NormalEquations::default();
+                for a in best_k.iter().filter(|a| a.associated) {
+                    let r = a.residual_m();
+                    let w = match config.k_best {
+                        KBest::TrimmedMean => 1.0 / math::abs(r).max(delta_m),
+                        KBest::KthRanked => 1.0,
+                    };
+                    eq.add(a.world, pose.translation(), a.normal, r, w);
+                }
+                best = Some((pose, cost, eq));
+                damping *= 0.25;
+            }
+        } else {
+            damping = (damping * 4.0).max(1.0);
+        }
+        let Some((best_pose, _, eq)) = best.as_ref() else {
+            continue;
+        };
+        if (eq.count as usize) < required {
+            return Err(MatchError::TooFewAssociations {
+                associated: u16::try_from(eq.count).unwrap_or(u16::MAX),
+                required: u16::try_from(required).unwrap_or(u16::MAX),
+            });
+        }
+        let step = truncated_step(
+            eq,
+            config.min_information_points,
+            config.rotation_scale_m,
+            damping,
+        );
+        let (small, len) = step_size(&step, config);
+        last_step_m = len;
+        if small {
+            break;
+        }
+        pose = apply_step(*best_pose, &step);
+    }
+    let Some((pose, cost_m, equations)) = best else {
+        return Err(MatchError::TooFewAssociations {
+            associated: 0,
+            required: u16::try_from(required).unwrap_or(u16::MAX),
+        });
+    };
+    // A last step above 100× the tolerance means the iterations ran out mid-descent.
+    if last_step_m > 100.0 * config.convergence_translation_m.max(1.0e-6) {
+        return Err(MatchError::DidNotConverge {
+            iterations,
+            last_step_m,
+        });
+    }
+    Ok(Outcome {
+        pose,
+        equations,
+        iterations,
+        cost_m,
+    })
+}

@@ -1,0 +1,79 @@
+//! Point-to-line ICP (after Censi's PL-ICP): associate every point within a shrinking gate
+//! with its nearest map segment, take the Gauss–Newton step of the summed squared
+//! point-to-line distances, repeat (see the module docs of [`super`]).
+
+use super::association::{associate, Association};
+use super::information::{truncated_step, NormalEquations};
+use super::{apply_step, step_size, MatchConfig, MatchError, Outcome};
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+
+pub(super) fn run<M: MapQuery>(
+    map: &M,
+    points: &[Point2],
+    initial: Pose2,
+    config: &MatchConfig,
+    assoc: &mut [Association],
+) -> Result<Outcome, MatchError> {
+    let m = points.len().min(assoc.len());
+    let assoc = assoc.get_mut(..m).unwrap_or_default();
+    let required = usize::from(config.min_points.max(3));
+    let min_gate = config.icp_min_gate_m.max(1.0e-3);
+    let mut gate = config.association_gate_m.max(min_gate);
+
+    let mut pose = initial;
+    let mut last = None;
+    let mut last_step_m = f32::INFINITY;
+    let mut iterations = 0u16;
+    for it in 1..=config.max_iterations.max(1) {
+        iterations = it;
+        associate(map, points, pose, gate, assoc);
+        let mut eq = NormalEquations::default();
+        for a in assoc
+            .iter()
+            .filter(|a| a.associated && a.distance_m <= gate)
+        {
+            eq.add(a.world, pose.translation(), a.normal, a.residual_m(), 1.0);
+        }
+        if (eq.count as usize) < required {
+            return Err(MatchError::TooFewAssociations {
+                associated: u16::try_from(eq.count).unwrap_or(u16::MAX),
+                required: u16::try_from(required).unwrap_or(u16::MAX),
+            });
+        }
+        let step = truncated_step(
+            &eq,
+            config.min_information_points,
+            config.rotation_scale_m,
+            0.0,
+        );
+        let (small, len) = step_size(&step, config);
+        last_step_m = len;
+        let rms = eq.rms_m();
+        last = Some((pose, rms, eq));
+        if small {
+            break;
+        }
+        pose = apply_step(pose, &step);
+        // Outliers beyond 3× the current RMS drop out as the fit tightens.
+        gate = (3.0 * rms).clamp(min_gate, gate);
+    }
+    let Some((pose, cost_m, equations)) = last else {
+        return Err(MatchError::TooFewAssociations {
+            associated: 0,
+            required: u16::try_from(required).unwrap_or(u16::MAX),
+        });
+    };
+    if last_step_m > 100.0 * config.convergence_translation_m.max(1.0e-6) {
+        return Err(MatchError::DidNotConverge {
+            iterations,
+            last_step_m,
+        });
+    }
+    Ok(Outcome {
+        pose,
+        equations,
+        iterations,
+        cost_m,
+    })
+}

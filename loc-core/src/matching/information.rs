@@ -1,0 +1,335 @@
+//! Point-to-line normal equations, the truncated Gauss–Newton step, and what the
+//! information matrix says about degeneracy.
+//!
+//! State order is `(x_m, y_m, theta_rad)` in the world frame. A scan point `p` (vehicle frame)
+//! maps to `q = R(θ)·p + t`; against a map line with unit normal `n` through `c` its residual
+//! is `r = n·(q − c)` and its Jacobian `J = [n_x, n_y, n·perp(q − t)]`.
+//!
+//! Metres and radians do not mix in an eigen-decomposition, so `θ` is scaled by a
+//! characteristic length `L` (`rotation_scale_m`, ≈ the distance of the scan points) before
+//! one is taken: a rotation by `δθ` then counts like a translation by `L·δθ`.
+
+use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector3};
+
+use crate::geometry::Point2;
+use crate::math;
+
+/// Accumulated point-to-line normal equations.
+#[derive(Debug, Clone, Copy)]
+pub struct NormalEquations {
+    /// `Σ w·JᵀJ` (the step's Gauss–Newton matrix).
+    pub weighted: Matrix3<f32>,
+    /// `Σ w·Jᵀr` (the gradient).
+    pub gradient: Vector3<f32>,
+    /// `Σ JᵀJ`, unweighted: the information in units of one range noise variance.
+    pub information_points: Matrix3<f32>,
+    /// Residuals added.
+    pub count: u32,
+    /// `Σ r²`, m².
+    pub sum_sq_m2: f32,
+}
+
+impl Default for NormalEquations {
+    fn default() -> Self {
+        Self {
+            weighted: Matrix3::zeros(),
+            gradient: Vector3::zeros(),
+            information_points: Matrix3::zeros(),
+            count: 0,
+            sum_sq_m2: 0.0,
+        }
+    }
+}
+
+impl NormalEquations {
+    /// Adds one residual: world point `q`, pose translation `t`, unit line normal `n`,
+    /// residual `r` (metres) and IRLS weight `w`.
+    #[inline]
+    pub fn add(&mut self, q: Point2, t: Point2, n: Point2, r: f32, w: f32) {
+        let j = Vector3::new(n.x_m, n.y_m, n.dot(q.sub(t).perp()));
+        let jjt = j * j.transpose();
+        self.information_points += jjt;
+        self.weighted += jjt * w;
+        self.gradient += j * (w * r);
+        self.count = self.count.saturating_add(1);
+        self.sum_sq_m2 += r * r;
+    }
+
+    /// RMS residual, metres (0 without residuals).
+    pub fn rms_m(&self) -> f32 {
+        if self.count == 0 {
+            0.0
+        } else {
+            math::sqrt(self.sum_sq_m2 / self.count as f32)
+        }
+    }
+}
+
+/// `diag(1, 1, 1/L)`: maps state increments to scaled ones (`θ` in metres at distance `L`)
+/// when used on matrices as `S·M·S`.
+fn scaling(rotation_scale_m: f32) -> Matrix3<f32> {
+    let l = if rotation_scale_m.is_finite() && rotation_scale_m > 0.0 {
+        rotation_scale_m
+    } else {
+        1.0
+    };
+    Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / l))
+}
+
+/// The directions of state space the information pins down: eigenvectors of the scaled
+/// information with eigenvalue at least `min_information`, as columns of `basis`
+/// (world-frame state increments, `(x_m, y_m, theta_rad)`); columns past `rank` are zero.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObservableSubspace {
+    /// Orthonormal (in scaled coordinates) observed directions, unscaled back to
+    /// `(x_m, y_m, theta_rad)`; the first `rank` columns are valid.
+    pub basis: Matrix3<f32>,
+    /// The scaled eigenvalue of each column (same units as the information given).
+    pub eigenvalues: Vector3<f32>,
+    /// How many directions are observed (0–3).
+    pub rank: usize,
+}
+
+/// Splits state space into observed and unobserved directions (see [`ObservableSubspace`]).
+/// A non-finite information matrix observes nothing.
+pub fn observable_subspace(
+    information: &Matrix3<f32>,
+    min_information: f32,
+    rotation_scale_m: f32,
+) -> ObservableSubspace {
+    let none = ObservableSubspace {
+        basis: Matrix3::zeros(),
+        eigenvalues: Vector3::zeros(),
+        rank: 0,
+    };
+    if !information.iter().all(|v| v.is_finite()) {
+        return none;
+    }
+    let s = scaling(rotation_scale_m);
+    let scaled = s * information * s;
+    let eig = SymmetricEigen::new(0.5 * (scaled + scaled.transpose()));
+    let mut out = none;
+    for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
+        if lambda.is_finite() && lambda >= min_information && lambda > 0.0 {
+            if let (Some(mut col), Some(e)) = (
+                out.basis.column_iter_mut().nth(out.rank),
+                out.eigenvalues.get_mut(out.rank),
+            ) {
+                col.copy_from(&(s * v));
+                *e = lambda;
+                out.rank += 1;
+            }
+        }
+    }
+    out
+}
+
+/// The Gauss–Newton step `−H⁺·g` restricted to the directions `information_points` observes
+/// (eigenvalue ≥ `min_information_points`), shrunk by `1 / (1 + damping)` (Levenberg).
+/// Along unobserved directions the step is exactly zero: the matcher never moves the pose
+/// where the scan has nothing to say.
+pub fn truncated_step(
+    eq: &NormalEquations,
+    min_information_points: f32,
+    rotation_scale_m: f32,
+    damping: f32,
+) -> Vector3<f32> {
+    let s = scaling(rotation_scale_m);
+    let observed = observable_subspace(
+        &eq.information_points,
+        min_information_points,
+        rotation_scale_m,
+    );
+    if observed.rank == 0 {
+        return Vector3::zeros();
+    }
+    // Solve the weighted system inside the observed subspace: Δ = B·y with
+    // (BᵀHB)·y = −Bᵀg, B the observed (scaled-orthonormal) basis.
+    let hs = s * eq.weighted * s;
+    let gs = s * eq.gradient;
+    let si = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / s.m33));
+    let b_scaled = si * observed.basis;
+    let mut y = Vector3::zeros();
+    match observed.rank {
+        1 => {
+            let b = b_scaled.column(0);
+            let h = b.dot(&(hs * b));
+            if h > 0.0 {
+                y.x = -b.dot(&gs) / h;
+            }
+        }
+        2 => {
+            let b = b_scaled.fixed_columns::<2>(0);
+            let h: Matrix2<f32> = b.transpose() * hs * b;
+            if let Some(inv) = h.try_inverse() {
+                let yy = -(inv * (b.transpose() * gs));
+                y.x = yy.x;
+                y.y = yy.y;
+            }
+        }
+        _ => {
+            if let Some(inv) = hs.try_inverse() {
+                // Full rank: solve directly in the eigenbasis' span (= everything).
+                let full = -(inv * gs);
+                return s * full / (1.0 + damping.max(0.0));
+            }
+        }
+    }
+    let step_scaled = b_scaled * y;
+    s * step_scaled / (1.0 + damping.max(0.0))
+}
+
+/// How well a scan pins the vehicle's position: the translation information with the heading
+/// marginalised out (Schur complement `I_tt − I_tθ·I_θt / I_θθ`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Degeneracy {
+    /// Smallest eigenvalue of that 2×2 information, m⁻² (already divided by σ²).
+    pub min_eigenvalue_per_m2: f32,
+    /// Its eigenvector: the least-observed direction of travel, unit, world frame. In a
+    /// smooth tunnel with no landmark in view this is the tunnel's axis.
+    pub direction_world: Point2,
+    /// The same direction as a state increment `(x_m, y_m, theta_rad)` including the heading
+    /// change that best compensates it (non-zero in a curved tunnel, where moving along the
+    /// axis also turns the walls).
+    pub state_direction: [f32; 3],
+    /// Largest eigenvalue of the 2×2 information, m⁻².
+    pub max_eigenvalue_per_m2: f32,
+    /// True when `min_eigenvalue_per_m2` is below the matcher's threshold: the scan does not
+    /// observe position along `direction_world`.
+    pub degenerate: bool,
+}
+
+/// The translation degeneracy of an information matrix (units m⁻² for translation).
+/// `threshold_per_m2` decides [`Degeneracy::degenerate`].
+pub fn degeneracy(information: &Matrix3<f32>, threshold_per_m2: f32) -> Degeneracy {
+    let i_tt = information.fixed_view::<2, 2>(0, 0).into_owned();
+    let i_tth = information.fixed_view::<2, 1>(0, 2).into_owned();
+    let i_thth = information.m33;
+    let schur = if i_thth > f32::MIN_POSITIVE {
+        i_tt - i_tth * i_tth.transpose() / i_thth
+    } else {
+        i_tt
+    };
+    let fallback = Degeneracy {
+        min_eigenvalue_per_m2: 0.0,
+        direction_world: Point2::new(1.0, 0.0),
+        state_direction: [1.0, 0.0, 0.0],
+        max_eigenvalue_per_m2: 0.0,
+        degenerate: true,
+    };
+    if !schur.iter().all(|v| v.is_finite()) {
+        return fallback;
+    }
+    let eig = SymmetricEigen::new(0.5 * (schur + schur.transpose()));
+    let (l0, l1) = (eig.eigenvalues.x, eig.eigenvalues.y);
+    let (lmin, lmax, v) = if l0 <= l1 {
+        (l0, l1, eig.eigenvectors.column(0))
+    } else {
+        (l1, l0, eig.eigenvectors.column(1))
+    };
+    let mut d = Point2::new(v.x, v.y);
+    let n = d.norm();
+    if !n.is_finite() || n <= 0.0 {
+        return fallback;
+    }
+    d = d.scale(1.0 / n);
+    // A canonical sign keeps reports stable from scan to scan.
+    if d.x_m < 0.0 || (d.x_m == 0.0 && d.y_m < 0.0) {
+        d = d.scale(-1.0);
+    }
+    let dtheta = if i_thth > f32::MIN_POSITIVE {
+        -(i_tth.x * d.x_m + i_tth.y * d.y_m) / i_thth
+    } else {
+        0.0
+    };
+    let lmin = lmin.max(0.0);
+    Degeneracy {
+        min_eigenvalue_per_m2: lmin,
+        direction_world: d,
+        state_direction: [d.x_m, d.y_m, dtheta],
+        max_eigenvalue_per_m2: lmax.max(0.0),
+        degenerate: lmin < threshold_per_m2 || threshold_per_m2.is_nan(),
+    }
+}
+
+/// The covariance `information⁻¹` restricted to the observed directions; along unobserved
+/// ones the variance is `unobserved_variance` (m² or rad², a large stand-in for infinity).
+pub fn covariance_from_information(
+    information: &Matrix3<f32>,
+    min_information: f32,
+    rotation_scale_m: f32,
+    unobserved_variance: f32,
+) -> Matrix3<f32> {
+    let s = scaling(rotation_scale_m);
+    let scaled = s * information * s;
+    let sym = 0.5 * (scaled + scaled.transpose());
+    if !sym.iter().all(|v| v.is_finite()) {
+        return Matrix3::identity() * unobserved_variance;
+    }
+    let eig = SymmetricEigen::new(sym);
+    let mut cov_scaled = Matrix3::zeros();
+    for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
+        let var = if lambda >= min_information && lambda > 0.0 {
+            1.0 / lambda
+        } else {
+            unobserved_variance
+        };
+        cov_scaled += v * v.transpose() * var;
+    }
+    // Σ = S·Σ_scaled·S with S = diag(1, 1, 1/L) maps back to (m, m, rad).
+    s * cov_scaled * s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Information of points on the two walls y = ±2.5 of a tunnel along x.
+    fn straight_walls() -> NormalEquations {
+        let mut eq = NormalEquations::default();
+        for i in 0..40 {
+            let x = i as f32 * 0.5;
+            for (y, ny) in [(2.5f32, -1.0f32), (-2.5, 1.0)] {
+                eq.add(
+                    Point2::new(x, y),
+                    Point2::ORIGIN,
+                    Point2::new(0.0, ny),
+                    0.0,
+                    1.0,
+                );
+            }
+        }
+        eq
+    }
+
+    #[test]
+    fn straight_tunnel_is_degenerate_along_x() {
+        let eq = straight_walls();
+        let d = degeneracy(&(eq.information_points / 1e-4), 1e4);
+        assert!(d.degenerate);
+        assert!(d.direction_world.x_m > 0.999, "{d:?}");
+        assert!(d.max_eigenvalue_per_m2 > 1e5);
+        let o = observable_subspace(&eq.information_points, 1.0, 10.0);
+        assert_eq!(o.rank, 2);
+        for k in 0..2 {
+            assert!(o.basis[(0, k)].abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn step_is_zero_along_unobserved_axis() {
+        let mut eq = straight_walls();
+        eq.gradient = Vector3::new(5.0, 1.0, 0.1);
+        let step = truncated_step(&eq, 1.0, 10.0, 0.0);
+        assert_eq!(step[0], 0.0);
+        assert!(step[1] != 0.0);
+    }
+
+    #[test]
+    fn full_rank_covariance_is_inverse() {
+        let info = Matrix3::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0);
+        let cov = covariance_from_information(&info, 1e-6, 1.0, 1e6);
+        let id = cov * info;
+        assert!((id - Matrix3::identity()).abs().max() < 1e-4);
+    }
+}

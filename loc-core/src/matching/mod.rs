@@ -1,0 +1,342 @@
+//! Scan-to-map matching (paper §3, §5): find the vehicle pose `(x, y, θ)` (world frame) that
+//! lays the scan onto the stored map.
+//!
+//! Two matchers share one input, one output and one solver:
+//! - [`MatcherKind::Hausdorff`], the paper's choice: minimise the **modified Hausdorff
+//!   distance** over the K best points, `K = k_fraction · m` (0.8·m by default, §5). "K best"
+//!   has two readings, both supported by [`KBest`]:
+//!   - [`KBest::TrimmedMean`] (**default**, the paper's eq. 1): the mean of the K smallest
+//!     point-to-map distances. Minimised by iteratively reweighted least squares (weights
+//!     `1/max(|r|, σ)`, which turns the squared point-to-line residual into the distance
+//!     itself), re-associating and re-selecting the K best every iteration.
+//!   - [`KBest::KthRanked`] (Huttenlocher's partial Hausdorff distance): the K-th ranked
+//!     distance. The step is the least-squares step on the K best points; steps are accepted
+//!     only when the K-th distance does not grow.
+//!
+//!   Steps that raise the cost are rejected and retried shorter (Levenberg damping). The K
+//!   best are found by introselect in the workspace (`O(m)`, no full sort).
+//! - [`MatcherKind::Icp`]: point-to-line ICP after Censi (PL-ICP): every point within an
+//!   association gate is paired with the nearest map segment and the sum of squared
+//!   point-to-line distances is minimised; the gate shrinks to 3× the RMS residual (never below
+//!   `icp_min_gate_m`). Departure from Censi: each iteration takes one Gauss–Newton step on
+//!   the linearised rotation instead of his closed-form Lagrange-multiplier solution; near
+//!   convergence (where this matcher operates after odometry prediction) the two coincide.
+//!
+//! ## What to feed it
+//! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
+//! **decimated subset of wall points** (evenly spread along each wall). The walls carry the
+//! heading and the across-tunnel position; only landmarks carry the along-tunnel position.
+//! Feeding every wall point would drown the landmarks: the K-best trimming would then discard
+//! the (initially misaligned) landmark points first. Decimation also bounds the cost.
+//! Before matching, [`prealign_along_tunnel`] can shift the prediction along the tunnel so that
+//! observed landmark clusters sit on their map landmarks (a landmark is narrower than a
+//! typical along-tunnel prediction error, beyond which the nearest-segment association fails).
+//!
+//! ## What it returns
+//! [`MatchResult`]: pose, 3×3 covariance `σ²·(ΣJᵀJ)⁻¹` from the point-to-line information of
+//! the final inliers (σ: range noise), iterations, cost, inliers, and a [`Degeneracy`]: the
+//! smallest eigenvalue of the translation information (heading marginalised) and its
+//! direction in the world. Directions observed by less than `min_information_points` fully
+//! informative points are not moved by the matcher and get a huge variance
+//! ([`UNOBSERVED_VARIANCE`]); the filter does not update them.
+
+mod association;
+mod hausdorff;
+mod icp;
+mod information;
+mod points;
+mod prealign;
+
+pub use association::{associate, select_k_best, Association};
+pub use information::{
+    covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
+    NormalEquations, ObservableSubspace,
+};
+pub use points::{select_match_points, MatchPoints, SelectionCounts};
+pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
+
+use core::fmt;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+
+/// Most points one match uses (landmarks plus decimated walls).
+pub const MAX_MATCH_POINTS: usize = 512;
+
+/// Variance reported along directions the scan does not observe, m² (or rad²).
+pub const UNOBSERVED_VARIANCE: f32 = 1.0e6;
+
+/// Which matcher to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MatcherKind {
+    /// Modified Hausdorff distance over the K best points (the paper's matcher).
+    #[default]
+    Hausdorff,
+    /// Point-to-line ICP (Censi's PL-ICP), the paper's comparison.
+    Icp,
+}
+
+/// The reading of "the K best points" in the modified Hausdorff distance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KBest {
+    /// Mean of the K smallest distances (the paper's eq. 1). Default.
+    #[default]
+    TrimmedMean,
+    /// The K-th ranked distance (partial Hausdorff distance).
+    KthRanked,
+}
+
+/// Matcher tuning. Distances in metres, angles in radians.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchConfig {
+    /// Which matcher.
+    pub matcher: MatcherKind,
+    /// Reading of "K best" (Hausdorff only).
+    pub k_best: KBest,
+    /// K as a fraction of the points, `(0, 1]` (Hausdorff only); the paper uses 0.8.
+    pub k_fraction: f32,
+    /// Iteration limit.
+    pub max_iterations: u16,
+    /// Points farther than this from any map geometry are unassociated, metres.
+    pub association_gate_m: f32,
+    /// ICP's association gate never shrinks below this, metres (≈ 5σ).
+    pub icp_min_gate_m: f32,
+    /// 1σ range noise of the lidar, metres: scales the covariance.
+    pub range_noise_sigma_m: f32,
+    /// Fewest points (and fewest associated inliers) for a match.
+    pub min_points: u16,
+    /// A direction is observed when its information is at least this many fully
+    /// informative points' worth (eigenvalue of `ΣJᵀJ`, dimensionless).
+    pub min_information_points: f32,
+    /// Converged when a step moves less than this, metres.
+    pub convergence_translation_m: f32,
+    /// Converged when a step turns less than this, radians.
+    pub convergence_rotation_rad: f32,
+    /// Characteristic point distance scaling θ against metres in eigen-decompositions, m.
+    pub rotation_scale_m: f32,
+}
+
+impl Default for MatchConfig {
+    fn default() -> Self {
+        Self {
+            matcher: MatcherKind::Hausdorff,
+            k_best: KBest::TrimmedMean,
+            k_fraction: 0.8,
+            max_iterations: 30,
+            association_gate_m: 1.0,
+            icp_min_gate_m: 0.05,
+            range_noise_sigma_m: 0.01,
+            min_points: 12,
+            min_information_points: 2.0,
+            convergence_translation_m: 1.0e-4,
+            convergence_rotation_rad: 1.0e-5,
+            rotation_scale_m: 10.0,
+        }
+    }
+}
+
+impl MatchConfig {
+    /// The information threshold in m⁻² (translation units): `min_information_points / σ²`.
+    pub fn min_information_per_m2(&self) -> f32 {
+        self.min_information_points / self.sigma_sq_m2()
+    }
+
+    fn sigma_sq_m2(&self) -> f32 {
+        let s = self.range_noise_sigma_m;
+        if s.is_finite() && s > 0.0 {
+            s * s
+        } else {
+            1.0e-4
+        }
+    }
+}
+
+/// A successful match.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchResult {
+    /// The vehicle pose (vehicle frame in the world frame).
+    pub pose: Pose2,
+    /// Covariance of `(x_m, y_m, theta_rad)`, m², m·rad, rad²; [`UNOBSERVED_VARIANCE`] along
+    /// unobserved directions.
+    pub covariance: Matrix3<f32>,
+    /// Point-to-line information `ΣJᵀJ / σ²` of the final inliers, world frame.
+    pub information: Matrix3<f32>,
+    /// Iterations run.
+    pub iterations: u16,
+    /// Final cost, metres: the trimmed mean or K-th distance (Hausdorff), RMS residual (ICP).
+    pub cost_m: f32,
+    /// Points used in the final estimate.
+    pub inliers: u16,
+    /// Translation degeneracy of the information.
+    pub degeneracy: Degeneracy,
+}
+
+/// Why a match failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MatchError {
+    /// Fewer input points than `min_points`: the scan saw too little (blocked, or the
+    /// stripper found no walls); check the scan and the stripping tolerances.
+    TooFewPoints {
+        /// Points given.
+        available: u16,
+        /// Points required.
+        required: u16,
+    },
+    /// Too few points lie within the association gate of the map: the prediction is far off
+    /// or the vehicle left the mapped area; re-initialise the pose.
+    TooFewAssociations {
+        /// Points associated.
+        associated: u16,
+        /// Points required.
+        required: u16,
+    },
+    /// The iteration limit was reached while steps were still large: the scan fits the map
+    /// ambiguously; rely on odometry for this scan.
+    DidNotConverge {
+        /// Iterations run.
+        iterations: u16,
+        /// Length of the last step, metres (rotation counted at `rotation_scale_m`).
+        last_step_m: f32,
+    },
+    /// The initial pose or the points are not finite: fix the caller's input.
+    NonFiniteInput,
+}
+
+impl fmt::Display for MatchError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MatchError::TooFewPoints { available, required } => write!(
+                f,
+                "only {available} scan points to match, {required} needed: check the scan and the wall stripping"
+            ),
+            MatchError::TooFewAssociations { associated, required } => write!(
+                f,
+                "only {associated} points lie near the map, {required} needed: the pose prediction is far off or outside the map; re-initialise"
+            ),
+            MatchError::DidNotConverge { iterations, last_step_m } => write!(
+                f,
+                "no convergence after {iterations} iterations (last step {last_step_m} m): ambiguous fit, keep odometry for this scan"
+            ),
+            MatchError::NonFiniteInput => {
+                write!(f, "non-finite pose or scan points given to the matcher")
+            }
+        }
+    }
+}
+
+/// Scratch memory of one match (about 20 KiB): keep one, in the [`crate::localizer`] or a
+/// static, rather than on a small stack.
+#[derive(Debug, Clone)]
+pub struct MatchWorkspace {
+    assoc: [Association; MAX_MATCH_POINTS],
+}
+
+impl Default for MatchWorkspace {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MatchWorkspace {
+    /// Zeroed scratch memory.
+    pub const fn new() -> Self {
+        Self {
+            assoc: [Association {
+                distance_m: 0.0,
+                world: Point2::ORIGIN,
+                closest: Point2::ORIGIN,
+                normal: Point2::ORIGIN,
+                associated: false,
+            }; MAX_MATCH_POINTS],
+        }
+    }
+}
+
+/// Matches `points` (vehicle frame, at most [`MAX_MATCH_POINTS`] are used) against `map`
+/// starting from `initial` (the predicted vehicle pose in the world).
+pub fn match_scan<M: MapQuery>(
+    map: &M,
+    points: &[Point2],
+    initial: Pose2,
+    config: &MatchConfig,
+    workspace: &mut MatchWorkspace,
+) -> Result<MatchResult, MatchError> {
+    let points = points
+        .get(..points.len().min(MAX_MATCH_POINTS))
+        .unwrap_or_default();
+    if !initial.is_finite() {
+        return Err(MatchError::NonFiniteInput);
+    }
+    let required = config.min_points.max(3);
+    let available = u16::try_from(points.len()).unwrap_or(u16::MAX);
+    if available < required {
+        return Err(MatchError::TooFewPoints {
+            available,
+            required,
+        });
+    }
+    if !points.iter().all(|p| p.is_finite()) {
+        return Err(MatchError::NonFiniteInput);
+    }
+    let outcome = match config.matcher {
+        MatcherKind::Hausdorff => {
+            hausdorff::run(map, points, initial, config, &mut workspace.assoc)
+        }
+        MatcherKind::Icp => icp::run(map, points, initial, config, &mut workspace.assoc),
+    }?;
+    Ok(finish(outcome, config))
+}
+
+/// What a matcher loop hands back before covariance and degeneracy are derived.
+pub(crate) struct Outcome {
+    pose: Pose2,
+    equations: NormalEquations,
+    iterations: u16,
+    cost_m: f32,
+}
+
+/// Adds the pose increment `step` `(dx_m, dy_m, dtheta_rad)` (world frame) to `pose`.
+pub(crate) fn apply_step(pose: Pose2, step: &Vector3<f32>) -> Pose2 {
+    Pose2::new(
+        pose.x_m + step[0],
+        pose.y_m + step[1],
+        pose.theta_rad + step[2],
+    )
+}
+
+/// Whether a step is below the convergence thresholds; also its length in metres with the
+/// rotation counted at `rotation_scale_m`.
+pub(crate) fn step_size(step: &Vector3<f32>, config: &MatchConfig) -> (bool, f32) {
+    let t = crate::math::hypot(step[0], step[1]);
+    let r = crate::math::abs(step[2]);
+    let small = t < config.convergence_translation_m && r < config.convergence_rotation_rad;
+    (
+        small || !(t.is_finite() && r.is_finite()),
+        t + r * config.rotation_scale_m,
+    )
+}
+
+fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
+    let inv_sigma_sq = 1.0 / config.sigma_sq_m2();
+    let information = o.equations.information_points * inv_sigma_sq;
+    let threshold = config.min_information_per_m2();
+    MatchResult {
+        pose: o.pose,
+        covariance: covariance_from_information(
+            &information,
+            threshold,
+            config.rotation_scale_m,
+            UNOBSERVED_VARIANCE,
+        ),
+        information,
+        iterations: o.iterations,
+        cost_m: o.cost_m,
+        inliers: u16::try_from(o.equations.count).unwrap_or(u16::MAX),
+        degeneracy: degeneracy(&information, threshold),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,217 @@
+//! Matcher tests against a brute-force map (every query scans every segment): a straight
+//! 5 m tunnel along x with triangular landmarks (W 0.5, H 0.25) every 9.5 m on alternate
+//! walls, scanned by an ideal LMS511 with Gaussian range noise.
+
+use super::*;
+use crate::geometry::Segment;
+use crate::map::{FeatureKind, MapHit, RayHit};
+use crate::rng::Pcg32;
+use crate::strip::{strip_walls, PointLabel, StripConfig};
+
+pub(crate) struct BruteMap {
+    pub segs: heapless::Vec<(Segment, FeatureKind), 512>,
+}
+
+impl BruteMap {
+    pub fn tunnel(landmarks: bool) -> Self {
+        let mut segs = heapless::Vec::new();
+        let mut push = |a: (f32, f32), b: (f32, f32), k| {
+            let _ = segs.push((
+                Segment::new(Point2::new(a.0, a.1), Point2::new(b.0, b.1)),
+                k,
+            ));
+        };
+        for (side, y, inward) in [(0, 2.5f32, -1.0f32), (1, -2.5, 1.0)] {
+            let wall = if side == 0 {
+                FeatureKind::LeftWall
+            } else {
+                FeatureKind::RightWall
+            };
+            let mut x = -20.0;
+            if landmarks {
+                for k in 0..14 {
+                    if k % 2 != side {
+                        continue;
+                    }
+                    let c = -10.0 + 9.5 * k as f32 + if side == 0 { 0.0 } else { 0.7 * k as f32 };
+                    let id = FeatureKind::Landmark { id: k as u16 };
+                    push((x, y), (c - 0.25, y), wall);
+                    push((c - 0.25, y), (c, y + inward * 0.25), id);
+                    push((c, y + inward * 0.25), (c + 0.25, y), id);
+                    x = c + 0.25;
+                }
+            }
+            push((x, y), (150.0, y), wall);
+        }
+        Self { segs }
+    }
+
+    /// Ranges of a 190° LMS511 scan (vehicle = sensor frame) at `pose`, as vehicle points.
+    pub fn scan(&self, pose: Pose2, noise_m: f32, seed: u64) -> heapless::Vec<Point2, 1141> {
+        let mut rng = Pcg32::seeded(seed);
+        let mut out = heapless::Vec::new();
+        for i in 0..1141 {
+            let a = (-95.0 + i as f32 * (190.0 / 1140.0)).to_radians();
+            if let Some(hit) = self.raycast(pose.translation(), pose.theta_rad + a, 80.0) {
+                let r = hit.range_m + rng.normal(0.0, noise_m);
+                let _ = out.push(Point2::from_polar(r, a));
+            }
+        }
+        out
+    }
+}
+
+impl MapQuery for BruteMap {
+    fn nearest(&self, p: Point2, max_distance_m: f32) -> Option<MapHit> {
+        if !p.is_finite() {
+            return None;
+        }
+        let mut best: Option<MapHit> = None;
+        for (s, k) in &self.segs {
+            let pr = s.project(p);
+            if pr.distance_m <= max_distance_m
+                && best.is_none_or(|b| pr.distance_m < b.projection.distance_m)
+            {
+                best = Some(MapHit {
+                    segment: *s,
+                    kind: *k,
+                    projection: pr,
+                });
+            }
+        }
+        best
+    }
+
+    fn raycast(&self, origin: Point2, angle_rad: f32, max_range_m: f32) -> Option<RayHit> {
+        let d = Point2::new(crate::math::cos(angle_rad), crate::math::sin(angle_rad));
+        let mut best: Option<RayHit> = None;
+        for (s, k) in &self.segs {
+            let e = s.b.sub(s.a);
+            let den = d.cross(e);
+            if den.abs() < 1e-12 {
+                continue;
+            }
+            let w = s.a.sub(origin);
+            let t = w.cross(e) / den;
+            let u = w.cross(d) / den;
+            if t > 0.0
+                && t <= max_range_m
+                && (0.0..=1.0).contains(&u)
+                && best.is_none_or(|b| t < b.range_m)
+            {
+                best = Some(RayHit {
+                    range_m: t,
+                    point: origin.add(d.scale(t)),
+                    kind: *k,
+                });
+            }
+        }
+        best
+    }
+
+    fn for_each_landmark_segment_near(
+        &self,
+        center: Point2,
+        radius_m: f32,
+        f: &mut dyn FnMut(u16, Segment),
+    ) {
+        for (s, k) in &self.segs {
+            if let FeatureKind::Landmark { id } = k {
+                if s.project(center).distance_m <= radius_m {
+                    f(*id, *s);
+                }
+            }
+        }
+    }
+}
+
+/// Strip, select, pre-align, match: the pipeline the localizer runs.
+fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) -> MatchResult {
+    let pts = map.scan(truth, 0.01, 7);
+    let mut labels = [PointLabel::Outlier; 1141];
+    let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
+    let mut sel = MatchPoints::new();
+    select_match_points(&pts, &labels, 160, &mut sel);
+    let start = prealign_along_tunnel(
+        map,
+        &pts,
+        &labels,
+        &strip,
+        guess,
+        &PrealignConfig::default(),
+    )
+    .map_or(guess, |s| s.pose);
+    let mut ws = MatchWorkspace::new();
+    match_scan(map, &sel, start, config, &mut ws).unwrap()
+}
+
+fn assert_close(r: &MatchResult, truth: Pose2, tol_m: f32, tol_rad: f32) {
+    let e = truth.translation().dist(r.pose.translation());
+    let eth = crate::math::wrap_angle(truth.theta_rad - r.pose.theta_rad).abs();
+    assert!(e < tol_m && eth < tol_rad, "error {e} m {eth} rad: {r:?}");
+}
+
+#[test]
+fn both_matchers_recover_pose_with_landmarks() {
+    let map = BruteMap::tunnel(true);
+    let truth = Pose2::new(20.0, 0.3, 0.02);
+    let guess = Pose2::new(20.5, 0.2, 0.02 + 3f32.to_radians());
+    for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+        for k_best in [KBest::TrimmedMean, KBest::KthRanked] {
+            let cfg = MatchConfig {
+                matcher,
+                k_best,
+                ..MatchConfig::default()
+            };
+            let r = pipeline(&map, truth, guess, &cfg);
+            assert_close(&r, truth, 0.01, 0.2f32.to_radians());
+            assert!(!r.degeneracy.degenerate, "{matcher:?} {:?}", r.degeneracy);
+        }
+    }
+}
+
+#[test]
+fn smooth_tunnel_is_degenerate_and_not_moved_along() {
+    let map = BruteMap::tunnel(false);
+    let truth = Pose2::new(20.0, 0.3, 0.02);
+    let guess = Pose2::new(20.5, 0.2, 0.02 + 3f32.to_radians());
+    for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+        let cfg = MatchConfig {
+            matcher,
+            ..MatchConfig::default()
+        };
+        let r = pipeline(&map, truth, guess, &cfg);
+        assert!(r.degeneracy.degenerate);
+        assert!(r.degeneracy.direction_world.x_m.abs() > 0.999);
+        // Across and heading corrected, along left where the guess put it.
+        assert!((r.pose.y_m - truth.y_m).abs() < 0.01, "{r:?}");
+        assert!((r.pose.theta_rad - truth.theta_rad).abs() < 0.2f32.to_radians());
+        assert!((r.pose.x_m - guess.x_m).abs() < 1e-3, "{r:?}");
+        assert!(r.covariance[(0, 0)] >= UNOBSERVED_VARIANCE * 0.5);
+        assert!(r.covariance[(1, 1)] < 1e-4);
+    }
+}
+
+#[test]
+fn bad_inputs_are_errors_not_panics() {
+    let map = BruteMap::tunnel(true);
+    let mut ws = MatchWorkspace::new();
+    let cfg = MatchConfig::default();
+    assert!(matches!(
+        match_scan(&map, &[], Pose2::IDENTITY, &cfg, &mut ws),
+        Err(MatchError::TooFewPoints { .. })
+    ));
+    let far = [Point2::new(500.0, 500.0); 40];
+    assert!(matches!(
+        match_scan(&map, &far, Pose2::IDENTITY, &cfg, &mut ws),
+        Err(MatchError::TooFewAssociations { .. })
+    ));
+    let nan = [Point2::new(f32::NAN, 0.0); 40];
+    assert_eq!(
+        match_scan(&map, &nan, Pose2::IDENTITY, &cfg, &mut ws),
+        Err(MatchError::NonFiniteInput)
+    );
+    let mut e = heapless::String::<256>::new();
+    core::fmt::write(&mut e, format_args!("{}", MatchError::NonFiniteInput)).unwrap();
+    assert!(!e.is_empty());
+}
