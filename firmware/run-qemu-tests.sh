@@ -50,6 +50,14 @@ if cargo build --release --locked --bins; then pass "build"; else fail "build"; 
 echo "--> clippy (firmware, -D warnings)"
 if cargo clippy --release --locked --bins -- -D warnings; then pass "clippy"; else fail "clippy"; fi
 
+echo "--> build for the real board (NUCLEO-H743ZI2, stm32h7xx-hal, defmt-rtt)"
+if CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --locked --bins \
+  --no-default-features --features board-nucleo-h743zi; then
+  pass "build nucleo-h743zi"
+else
+  fail "build nucleo-h743zi"
+fi
+
 echo "--> selftest under QEMU"
 if [ -x "$elf_dir/selftest" ]; then
   run_qemu "$elf_dir/selftest" "$work/uart0.bin" | tee "$work/selftest.log"

@@ -54,7 +54,10 @@ impl core::fmt::Display for FrameError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             FrameError::BufferTooSmall => {
-                write!(f, "output buffer too small: pass at least {MAX_FRAME_BYTES} bytes")
+                write!(
+                    f,
+                    "output buffer too small: pass at least {MAX_FRAME_BYTES} bytes"
+                )
             }
             FrameError::Malformed => f.write_str(
                 "malformed pose frame: drop the bytes and resynchronise on the next 0x00",

@@ -17,8 +17,7 @@ static SCANS_MM_LE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/scans_mm.b
 /// range (`out` untouched).
 pub fn load_scan_mm(index: usize, out: &mut [u16; BEAMS_PER_SCAN]) -> bool {
     let bytes_per_scan = BEAMS_PER_SCAN * 2;
-    let Some(bytes) = SCANS_MM_LE.get(index * bytes_per_scan..(index + 1) * bytes_per_scan)
-    else {
+    let Some(bytes) = SCANS_MM_LE.get(index * bytes_per_scan..(index + 1) * bytes_per_scan) else {
         return false;
     };
     for (slot, pair) in out.iter_mut().zip(bytes.chunks_exact(2)) {

@@ -8,10 +8,10 @@
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
+use firmware::instruction_loop;
 use firmware::pipeline::{Pipeline, Stage};
 use firmware::recorded::{self, BEAMS_PER_SCAN, SCAN_COUNT, TRUE_POSES};
 use firmware::stage_stats::StageStats;
-use firmware::instruction_loop;
 use loc_core::geometry::Pose2;
 use loc_core::scan::Scan;
 
@@ -28,7 +28,11 @@ fn main() -> ! {
         defmt::error!("board peripherals already taken");
         SelectedBoard::exit(ExitStatus::Failure)
     };
-    defmt::println!("bench on {=str}, counter unit {}", SelectedBoard::NAME, SelectedBoard::COUNTER_UNIT);
+    defmt::println!(
+        "bench on {=str}, counter unit {}",
+        SelectedBoard::NAME,
+        SelectedBoard::COUNTER_UNIT
+    );
 
     // Calibration: a loop of known length against the counter.
     let expected = u64::from(CALIBRATION_ITERATIONS) * instruction_loop::INSTRUCTIONS_PER_ITERATION;
@@ -43,7 +47,11 @@ fn main() -> ! {
     );
 
     for cost in firmware::math_costs::measure_all(&board) {
-        defmt::println!("math {=str}: {=u64} instructions per call", cost.name, cost.per_call);
+        defmt::println!(
+            "math {=str}: {=u64} instructions per call",
+            cost.name,
+            cost.per_call
+        );
     }
 
     let Some(scan) = cortex_m::singleton!(: Scan = Scan::new()) else {
@@ -66,16 +74,37 @@ fn main() -> ! {
         end_to_end.record(costs.end_to_end());
     }
 
-    defmt::println!("instructions per scan over {=usize} scans of {=usize} beams:", SCAN_COUNT, BEAMS_PER_SCAN);
+    defmt::println!(
+        "instructions per scan over {=usize} scans of {=usize} beams:",
+        SCAN_COUNT,
+        BEAMS_PER_SCAN
+    );
     for (stage, s) in Stage::ALL.iter().zip(stats.iter()) {
-        defmt::println!("stage {=str}: mean {=u64} max {=u64}", stage.name(), s.mean(), s.max);
+        defmt::println!(
+            "stage {=str}: mean {=u64} max {=u64}",
+            stage.name(),
+            s.mean(),
+            s.max
+        );
     }
-    defmt::println!("stage end-to-end: mean {=u64} max {=u64}", end_to_end.mean(), end_to_end.max);
+    defmt::println!(
+        "stage end-to-end: mean {=u64} max {=u64}",
+        end_to_end.mean(),
+        end_to_end.max
+    );
     if end_to_end.max <= BUDGET_INSTRUCTIONS {
-        defmt::println!("budget PASS: max {=u64} <= {=u64} instructions per scan", end_to_end.max, BUDGET_INSTRUCTIONS);
+        defmt::println!(
+            "budget PASS: max {=u64} <= {=u64} instructions per scan",
+            end_to_end.max,
+            BUDGET_INSTRUCTIONS
+        );
         SelectedBoard::exit(ExitStatus::Success)
     } else {
-        defmt::println!("budget FAIL: max {=u64} > {=u64} instructions per scan", end_to_end.max, BUDGET_INSTRUCTIONS);
+        defmt::println!(
+            "budget FAIL: max {=u64} > {=u64} instructions per scan",
+            end_to_end.max,
+            BUDGET_INSTRUCTIONS
+        );
         SelectedBoard::exit(ExitStatus::Failure)
     }
 }

@@ -1,6 +1,6 @@
 //! The on-target tests themselves, one function each, registered in [`run_all`].
 
-use firmware::board::{Board, SelectedBoard};
+use firmware::board::{Board, CounterUnit, SelectedBoard};
 use firmware::instruction_loop;
 use firmware::pipeline::Pipeline;
 use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
@@ -11,10 +11,17 @@ use loc_core::scan::Scan;
 
 /// Runs every test.
 pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard) {
-    runner.run("counter_calibrates_against_known_loop", || counter_calibrates(board));
-    runner.run("counter_is_deterministic", || counter_is_deterministic(board));
+    runner.run("counter_calibrates_against_known_loop", || {
+        counter_calibrates(board)
+    });
+    runner.run("counter_is_deterministic", || {
+        counter_is_deterministic(board)
+    });
     runner.run("pose_frame_round_trips", pose_frame_round_trips);
-    runner.run("pose_frame_rejects_corruption", pose_frame_rejects_corruption);
+    runner.run(
+        "pose_frame_rejects_corruption",
+        pose_frame_rejects_corruption,
+    );
     runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
     runner.run("recorded_scans_convert", || recorded_scans_convert(board));
 }
@@ -22,20 +29,34 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard) {
 /// Iterations of the calibration loop (4 instructions each): 1 M instructions.
 const CALIBRATION_ITERATIONS: u32 = 250_000;
 
-/// The counter agrees with a loop of known instruction count to within one counter
-/// resolution plus the loop's fixed set-up (a handful of instructions).
+/// Under QEMU (instruction counter) the counter agrees with a loop of known instruction
+/// count to within one counter resolution plus the loop's fixed set-up. On hardware (cycle
+/// counter) cycles per instruction vary with the pipeline, so only the order of magnitude
+/// is checked (0.4 to 3 cycles per instruction).
 fn counter_calibrates(board: &SelectedBoard) -> TestResult {
-    let expected =
-        u64::from(CALIBRATION_ITERATIONS) * instruction_loop::INSTRUCTIONS_PER_ITERATION;
+    let expected = u64::from(CALIBRATION_ITERATIONS) * instruction_loop::INSTRUCTIONS_PER_ITERATION;
     let t0 = board.counter_now();
     instruction_loop::run(CALIBRATION_ITERATIONS);
     let measured = board.counter_now() - t0;
-    defmt::println!("  loop of {=u64} instructions measured as {=u64}", expected, measured);
-    let slack = 2 * SelectedBoard::COUNTER_RESOLUTION + 64;
-    check(
-        measured + slack >= expected && measured <= expected + slack,
-        "counter disagrees with the known-length loop (is QEMU run with -icount shift=0?)",
-    )
+    defmt::println!(
+        "  loop of {=u64} instructions measured as {=u64} {}",
+        expected,
+        measured,
+        SelectedBoard::COUNTER_UNIT
+    );
+    match SelectedBoard::COUNTER_UNIT {
+        CounterUnit::Instructions => {
+            let slack = 2 * SelectedBoard::COUNTER_RESOLUTION + 64;
+            check(
+                measured + slack >= expected && measured <= expected + slack,
+                "counter disagrees with the known-length loop (is QEMU run with -icount shift=0?)",
+            )
+        }
+        CounterUnit::Cycles => check(
+            measured * 10 >= expected * 4 && measured <= expected * 3,
+            "cycle counter far from the known-length loop (is the DWT running?)",
+        ),
+    }
 }
 
 /// The same code measures the same count twice (QEMU icount is deterministic).
@@ -46,7 +67,8 @@ fn counter_is_deterministic(board: &SelectedBoard) -> TestResult {
         instruction_loop::run(10_000);
         *c = board.counter_now() - t0;
     }
-    let spread = counts.iter().max().copied().unwrap_or(0) - counts.iter().min().copied().unwrap_or(0);
+    let spread =
+        counts.iter().max().copied().unwrap_or(0) - counts.iter().min().copied().unwrap_or(0);
     check(
         spread <= SelectedBoard::COUNTER_RESOLUTION,
         "repeated measurements of the same loop differ by more than one tick",
@@ -68,7 +90,10 @@ fn pose_frame_round_trips() -> TestResult {
     let frame = sample_frame();
     let mut buf = [0u8; MAX_FRAME_BYTES];
     let encoded = frame.encode(&mut buf).map_err(|_| "encode failed")?;
-    check(encoded.last() == Some(&0), "frame does not end in the 0x00 delimiter")?;
+    check(
+        encoded.last() == Some(&0),
+        "frame does not end in the 0x00 delimiter",
+    )?;
     check(
         encoded.iter().rev().skip(1).all(|&b| b != 0),
         "COBS frame holds a 0x00 before its end",
@@ -79,7 +104,10 @@ fn pose_frame_round_trips() -> TestResult {
 
 fn pose_frame_rejects_corruption() -> TestResult {
     let mut buf = [0u8; MAX_FRAME_BYTES];
-    let len = sample_frame().encode(&mut buf).map_err(|_| "encode failed")?.len();
+    let len = sample_frame()
+        .encode(&mut buf)
+        .map_err(|_| "encode failed")?
+        .len();
     // Cut the frame short: the tail of the payload is missing.
     let Some(prefix) = buf.get_mut(..len / 2) else {
         return Err("frame shorter than expected");
@@ -87,7 +115,10 @@ fn pose_frame_rejects_corruption() -> TestResult {
     if let Some(last) = prefix.last_mut() {
         *last = 0;
     }
-    check(PoseFrame::decode(prefix).is_err(), "a truncated frame decoded")
+    check(
+        PoseFrame::decode(prefix).is_err(),
+        "a truncated frame decoded",
+    )
 }
 
 /// Sends a pose frame over the board UART (the runner captures UART0 to a file and checks
@@ -95,11 +126,17 @@ fn pose_frame_rejects_corruption() -> TestResult {
 fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     use embedded_io::Write;
     let mut buf = [0u8; MAX_FRAME_BYTES];
-    let encoded = sample_frame().encode(&mut buf).map_err(|_| "encode failed")?;
+    let encoded = sample_frame()
+        .encode(&mut buf)
+        .map_err(|_| "encode failed")?;
     let serial = board.serial();
     serial.write_all(encoded).map_err(|_| "UART write failed")?;
     serial.flush().map_err(|_| "UART flush failed")?;
-    defmt::println!("  uart0 frame {=usize} bytes: {=[u8]:02x}", encoded.len(), encoded);
+    defmt::println!(
+        "  uart0 frame {=usize} bytes: {=[u8]:02x}",
+        encoded.len(),
+        encoded
+    );
     Ok(())
 }
 
@@ -114,7 +151,10 @@ fn recorded_scans_convert(board: &SelectedBoard) -> TestResult {
         check(recorded::load_scan_mm(k, &mut raw), "recorded scan missing")?;
         let mut pipeline = Pipeline::new(Pose2::new(x, y, th));
         pipeline.process(board, scan, &raw);
-        check(scan.len() > 1000, "fewer than 1000 valid beams in a recorded scan")?;
+        check(
+            scan.len() > 1000,
+            "fewer than 1000 valid beams in a recorded scan",
+        )?;
         let c = pipeline.last_centroid();
         check(c.y_m.abs() < 2.5, "scan centroid outside the tunnel")?;
     }

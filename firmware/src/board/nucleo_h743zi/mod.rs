@@ -1,0 +1,100 @@
+//! ST NUCLEO-H743ZI2 (STM32H743ZI, Cortex-M7 with double-precision FPU, 400 MHz here): the
+//! real board the firmware is built for.
+//!
+//! - Serial: USART3 on PD8 (TX) / PD9 (RX), the ST-LINK virtual COM port, 115200 8N1; wire
+//!   the LMS511's RS-232/RS-422 converter there (or change the pins in [`NucleoH743zi::take`]).
+//! - Counter: the DWT cycle counter (core cycles), extended to 64 bits in software.
+//! - Log: defmt over RTT, read by `probe-rs run`.
+//! - Exit: semihosting `SYS_EXIT` when a debugger is attached (probe-rs returns the status),
+//!   otherwise a system reset.
+//!
+//! Memory (`memory/nucleo-h743zi.x`): 2 MiB flash at `0x0800_0000`, AXI SRAM 512 KiB at
+//! `0x2400_0000` as RAM.
+//!
+//! Flash and run: `cd firmware && probe-rs run --chip STM32H743ZITx
+//! target/thumbv7em-none-eabihf/release/bench` after
+//! `cargo build --release --no-default-features --features board-nucleo-h743zi`.
+
+mod cycle_counter;
+mod usart;
+
+pub use cycle_counter::CycleCounter;
+pub use usart::{Usart3, UsartError};
+
+use stm32h7xx_hal::{pac, prelude::*};
+
+use super::{Board, CounterUnit, ExitStatus};
+
+// The defmt global logger: RTT, read by the probe.
+use defmt_rtt as _;
+
+/// Core clock, Hz.
+pub const SYS_CLK_HZ: u32 = 400_000_000;
+/// USART3 line rate, baud.
+pub const USART3_BAUD: u32 = 115_200;
+
+/// The NUCLEO-H743ZI2 board: USART3 and the DWT cycle counter.
+pub struct NucleoH743zi {
+    usart3: Usart3,
+    counter: CycleCounter,
+}
+
+impl Board for NucleoH743zi {
+    type Serial = Usart3;
+    const NAME: &'static str = "NUCLEO-H743ZI2 (STM32H743ZI, Cortex-M7 @ 400 MHz)";
+    const COUNTER_UNIT: CounterUnit = CounterUnit::Cycles;
+    const COUNTER_RESOLUTION: u64 = 1;
+
+    /// Sets the clocks (400 MHz core from the HSI through PLL1, LDO supply), USART3 and the
+    /// cycle counter. `None` if the peripherals were taken or USART3 cannot be set up.
+    fn take() -> Option<Self> {
+        let cp = cortex_m::Peripherals::take()?;
+        let dp = pac::Peripherals::take()?;
+        let pwrcfg = dp.PWR.constrain().freeze();
+        let ccdr = dp
+            .RCC
+            .constrain()
+            .sys_ck(SYS_CLK_HZ.Hz())
+            .freeze(pwrcfg, &dp.SYSCFG);
+        let gpiod = dp.GPIOD.split(ccdr.peripheral.GPIOD);
+        let tx = gpiod.pd8.into_alternate();
+        let rx = gpiod.pd9.into_alternate();
+        let serial = dp
+            .USART3
+            .serial(
+                (tx, rx),
+                USART3_BAUD.bps(),
+                ccdr.peripheral.USART3,
+                &ccdr.clocks,
+            )
+            .ok()?;
+        let counter = CycleCounter::start(cp.DCB, cp.DWT);
+        Some(Self {
+            usart3: Usart3::new(serial),
+            counter,
+        })
+    }
+
+    fn serial(&mut self) -> &mut Usart3 {
+        &mut self.usart3
+    }
+
+    fn counter_now(&self) -> u64 {
+        self.counter.cycles()
+    }
+
+    fn exit(status: ExitStatus) -> ! {
+        // C_DEBUGEN: a debugger (probe-rs) is attached and will answer semihosting; without
+        // one the semihosting breakpoint would fault, so reset instead.
+        // SAFETY: read-only access to the core debug register DHCSR.
+        let debugger_attached = unsafe { (*cortex_m::peripheral::DCB::PTR).dhcsr.read() } & 1 != 0;
+        if debugger_attached {
+            let code = match status {
+                ExitStatus::Success => cortex_m_semihosting::debug::EXIT_SUCCESS,
+                ExitStatus::Failure => cortex_m_semihosting::debug::EXIT_FAILURE,
+            };
+            cortex_m_semihosting::debug::exit(code);
+        }
+        cortex_m::peripheral::SCB::sys_reset()
+    }
+}
