@@ -1,5 +1,59 @@
 //! # lidar-driver: SICK LMS5xx telegrams, CoLa-A and CoLa-B, on any transport
 //!
-//! Not built yet: this crate is an empty shell until the lidar-driver issue lands.
+//! Layers, bottom up (each `no_std`, no heap unless noted):
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`frame`] | one checked frame ([`Frame`]), dialects, the CoLa-B checksum |
+//! | [`framer`] | streaming [`Framer`]: bytes in any chunking → frames, resync, [`FramerStats`] |
+//! | [`telegram`] | [`Telegram`]: command type ([`CommandType`]), name, argument bytes |
+//! | [`args`] | typed argument reader/writer for both dialects ([`ArgReader`], [`TelegramWriter`]) |
+//! | [`request`] | host requests of the start-up sequence: encoder and parser ([`Request`]) |
+//! | [`answer`] | sensor answers, typed ([`Answer`]); `sFA` codes in [`sopas_error`] |
+//! | [`scandata`] | zero-copy `LMDscandata` decoder ([`ScanData`]) |
+//! | `scan_repr` | owned scan ([`ScanRepr`], feature `alloc`) emitted as CoLa-A / CoLa-B |
+//! | `recording` | readers for raw streams, pcap, pcapng and SICK `.pcapng.json` (feature `std`) |
+//!
+//! ```
+//! use lidar_driver::{Framer, Answer, Dialect, Request};
+//! let mut out = [0u8; 64];
+//! let n = Request::SUBSCRIBE_SCANS.emit(Dialect::ColaB, &mut out).unwrap();
+//! let mut framer = Framer::new([0u8; 16384]);
+//! framer.feed(&out[..n], |frame| {
+//!     let frame = frame.unwrap();
+//!     assert!(Answer::from_frame(frame).is_err()); // a request, not an answer
+//! });
+//! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+pub mod answer;
+pub mod args;
+pub mod frame;
+pub mod framer;
+pub mod request;
+pub mod scandata;
+pub mod sopas_error;
+pub mod telegram;
+
+#[cfg(feature = "alloc")]
+mod scan_repr;
+
+#[cfg(feature = "std")]
+pub mod recording;
+
+pub use answer::{Answer, AnswerError, DeviceState, ScanConfigError};
+pub use args::{ArgError, ArgErrorKind, ArgReader, EmitError, LenWidth, TelegramWriter};
+pub use frame::{xor_checksum, Dialect, Frame, FrameError};
+pub use framer::{Framer, FramerStats};
+pub use request::{
+    names, AccessLevel, EchoFilter, OutputRange, Request, RequestError, ScanConfig, ScanDataConfig,
+};
+#[cfg(feature = "alloc")]
+pub use scan_repr::{ChannelRepr, ScanRepr};
+pub use scandata::{Channel, ChannelBits, ChannelKind, ScanData, ScanError, ScanField, ScanHeader};
+pub use sopas_error::SopasError;
+pub use telegram::{CommandType, Telegram, TelegramError};
