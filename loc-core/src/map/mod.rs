@@ -1,6 +1,23 @@
 //! The stored map: tunnel walls and landmarks in world coordinates, and the queries the
 //! estimator makes against it.
+//!
+//! - [`query`](MapQuery): the contract the estimator codes against.
+//! - [`StoredMap`] / [`TunnelMap`]: walls and landmarks expanded into segments with a
+//!   sparse-grid index ([`MapBuilder`] builds one).
+//! - [`WallSide`]: left/right wall and positions along a wall by arc length.
+//! - [`MapError`]: what goes wrong building, loading or saving a map.
 
+mod error;
+mod grid;
 mod query;
+mod search;
+mod stored;
+mod wall;
 
+pub use error::{Capacity, GeometryError, MapError};
 pub use query::{FeatureKind, MapHit, MapQuery, RayHit};
+pub use stored::{
+    HostMap, IndexStats, LandmarkPlacement, MapBuilder, MapLandmark, MapSegment, StoredMap,
+    TunnelMap, DEFAULT_CELL_SIZE_M, MAX_LANDMARK_OFFSET_M,
+};
+pub use wall::WallSide;

@@ -1,0 +1,257 @@
+//! The queries of [`MapQuery`](super::MapQuery) answered from the sparse grid: nearest
+//! segment (ring search), ray cast (grid DDA) and landmark segments near a point.
+//!
+//! Every query is clipped to the index's bounding rectangle of cells, so its cost is bounded
+//! by the map's extent however large the radius or range asked for.
+
+use crate::geometry::{Point2, Segment};
+use crate::math;
+
+use super::grid::{Cell, CellRect, SparseGrid};
+use super::{MapHit, MapSegment, RayHit};
+
+/// Cross products below this (m²) count as a ray parallel to a segment.
+const PARALLEL_EPS: f32 = 1e-12;
+
+/// Where a ray meets a segment: `(t, u)` with hit `o + t·d = a + u·(b − a)`, if it does
+/// (`t ≥ 0`, `u ∈ [0, 1]`).
+#[inline]
+pub(crate) fn ray_segment(o: Point2, d: Point2, s: &Segment) -> Option<f32> {
+    let e = s.b.sub(s.a);
+    let denom = d.cross(e);
+    if denom.abs() <= PARALLEL_EPS {
+        return None;
+    }
+    let w = s.a.sub(o);
+    let t = w.cross(e) / denom;
+    let u = w.cross(d) / denom;
+    (t >= 0.0 && (-1e-6..=1.0 + 1e-6).contains(&u)).then_some(t)
+}
+
+impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
+    /// Calls `f` for each cell of ring `k` (Chebyshev distance `k` from `c`) inside `b`.
+    fn for_each_ring_cell(c: Cell, k: i32, b: &CellRect, f: &mut dyn FnMut(Cell)) {
+        let ix_lo = (c.ix - k).max(b.min.ix);
+        let ix_hi = (c.ix + k).min(b.max.ix);
+        let rows: [i32; 2] = [c.iy - k, c.iy + k];
+        for (n, &iy) in rows.iter().enumerate() {
+            if (n == 1 && k == 0) || iy < b.min.iy || iy > b.max.iy {
+                continue;
+            }
+            for ix in ix_lo..=ix_hi {
+                f(Cell { ix, iy });
+            }
+        }
+        if k == 0 {
+            return;
+        }
+        let iy_lo = (c.iy - k + 1).max(b.min.iy);
+        let iy_hi = (c.iy + k - 1).min(b.max.iy);
+        for ix in [c.ix - k, c.ix + k] {
+            if ix < b.min.ix || ix > b.max.ix {
+                continue;
+            }
+            for iy in iy_lo..=iy_hi {
+                f(Cell { ix, iy });
+            }
+        }
+    }
+
+    /// The segment nearest to `p` within `max_distance_m`.
+    pub fn nearest(&self, segs: &[MapSegment], p: Point2, max_distance_m: f32) -> Option<MapHit> {
+        if !p.is_finite() || max_distance_m.is_nan() || max_distance_m < 0.0 {
+            return None;
+        }
+        let b = self.bounds()?;
+        let c = self.spec().cell_of(p)?;
+        let cs = self.spec().cell_size_m;
+        let k_first = 0
+            .max(b.min.ix - c.ix)
+            .max(c.ix - b.max.ix)
+            .max(b.min.iy - c.iy)
+            .max(c.iy - b.max.iy);
+        let k_box = (c.ix - b.min.ix)
+            .abs()
+            .max((c.ix - b.max.ix).abs())
+            .max((c.iy - b.min.iy).abs())
+            .max((c.iy - b.max.iy).abs());
+        let k_dist = if max_distance_m.is_finite() {
+            let k = math::floor(max_distance_m * self.spec().inv_cell_m) + 1.0;
+            if k < k_box as f32 {
+                k as i32
+            } else {
+                k_box
+            }
+        } else {
+            k_box
+        };
+        let k_last = k_box.min(k_dist);
+        let mut best: Option<MapHit> = None;
+        let mut best_d = max_distance_m;
+        for k in k_first..=k_last {
+            // Every cell of ring k is at least (k − 1) cells from p.
+            if k >= 1 && (k - 1) as f32 * cs > best_d {
+                break;
+            }
+            Self::for_each_ring_cell(c, k, &b, &mut |cell| {
+                for &i in self.cell_refs(cell) {
+                    let Some(ms) = segs.get(usize::from(i)) else {
+                        continue;
+                    };
+                    let proj = ms.segment.project(p);
+                    let better = match best {
+                        None => proj.distance_m <= best_d,
+                        Some(_) => proj.distance_m < best_d,
+                    };
+                    if better {
+                        best_d = proj.distance_m;
+                        best = Some(MapHit {
+                            segment: ms.segment,
+                            kind: ms.kind,
+                            projection: proj,
+                        });
+                    }
+                }
+            });
+        }
+        best
+    }
+
+    /// The first segment a ray meets within `max_range_m`.
+    pub fn raycast(
+        &self,
+        segs: &[MapSegment],
+        origin: Point2,
+        angle_rad: f32,
+        max_range_m: f32,
+    ) -> Option<RayHit> {
+        if !origin.is_finite()
+            || !angle_rad.is_finite()
+            || max_range_m.is_nan()
+            || max_range_m < 0.0
+        {
+            return None;
+        }
+        let b = self.bounds()?;
+        let spec = *self.spec();
+        let cs = spec.cell_size_m;
+        let (sin, cos) = math::sin_cos(angle_rad);
+        let d = Point2::new(cos, sin);
+        // Clip the ray to the index's bounding box.
+        let lo = Point2::new(b.min.ix as f32 * cs, b.min.iy as f32 * cs);
+        let hi = Point2::new((b.max.ix + 1) as f32 * cs, (b.max.iy + 1) as f32 * cs);
+        let mut t0: f32 = 0.0;
+        let mut t1: f32 = max_range_m;
+        for (o, dv, l, h) in [
+            (origin.x_m, d.x_m, lo.x_m, hi.x_m),
+            (origin.y_m, d.y_m, lo.y_m, hi.y_m),
+        ] {
+            if dv.abs() < 1e-12 {
+                if o < l || o > h {
+                    return None;
+                }
+            } else {
+                let ta = (l - o) / dv;
+                let tb = (h - o) / dv;
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
+            return None;
+        }
+        let start = origin.add(d.scale(t0));
+        let mut cell = spec.cell_of(start)?;
+        cell.ix = cell.ix.clamp(b.min.ix, b.max.ix);
+        cell.iy = cell.iy.clamp(b.min.iy, b.max.iy);
+        let axis = |o: f32, dv: f32, i: i32| -> (i32, f32, f32) {
+            if dv > 0.0 {
+                (1, ((i + 1) as f32 * cs - o) / dv, cs / dv)
+            } else if dv < 0.0 {
+                (-1, (i as f32 * cs - o) / dv, -cs / dv)
+            } else {
+                (0, f32::INFINITY, f32::INFINITY)
+            }
+        };
+        let (step_x, mut t_max_x, dt_x) = axis(origin.x_m, d.x_m, cell.ix);
+        let (step_y, mut t_max_y, dt_y) = axis(origin.y_m, d.y_m, cell.iy);
+        let max_steps = (b.max.ix - b.min.ix) + (b.max.iy - b.min.iy) + 3;
+        let mut best: Option<(f32, usize)> = None;
+        let mut best_t = max_range_m;
+        for _ in 0..max_steps {
+            for &i in self.cell_refs(cell) {
+                let Some(ms) = segs.get(usize::from(i)) else {
+                    continue;
+                };
+                if let Some(t) = ray_segment(origin, d, &ms.segment) {
+                    if t <= best_t && best.is_none_or(|(bt, _)| t < bt) {
+                        best_t = t;
+                        best = Some((t, usize::from(i)));
+                    }
+                }
+            }
+            let t_exit = t_max_x.min(t_max_y);
+            if (best.is_some() && best_t <= t_exit) || t_exit > t1 {
+                break;
+            }
+            if t_max_x < t_max_y {
+                cell.ix += step_x;
+                t_max_x += dt_x;
+            } else {
+                cell.iy += step_y;
+                t_max_y += dt_y;
+            }
+            if !b.contains(cell) {
+                break;
+            }
+        }
+        let (t, i) = best?;
+        let ms = segs.get(i)?;
+        Some(RayHit {
+            range_m: t,
+            point: origin.add(d.scale(t)),
+            kind: ms.kind,
+        })
+    }
+
+    /// Calls `f(index, segment)` once for every segment accepted by `keep` with a point
+    /// within `radius_m` of `center`.
+    pub fn for_each_segment_near(
+        &self,
+        segs: &[MapSegment],
+        center: Point2,
+        radius_m: f32,
+        keep: &dyn Fn(&MapSegment) -> bool,
+        f: &mut dyn FnMut(usize, &MapSegment),
+    ) {
+        if !center.is_finite() || radius_m.is_nan() || radius_m < 0.0 {
+            return;
+        }
+        let Some(b) = self.bounds() else {
+            return;
+        };
+        let r = Point2::new(radius_m, radius_m);
+        let query = self.spec().rect_of_box(center.sub(r), center.add(r));
+        let Some(rect) = query.intersect(&b) else {
+            return;
+        };
+        for iy in rect.min.iy..=rect.max.iy {
+            for ix in rect.min.ix..=rect.max.ix {
+                let cell = Cell { ix, iy };
+                for &i in self.cell_refs(cell) {
+                    let Some(ms) = segs.get(usize::from(i)) else {
+                        continue;
+                    };
+                    if !keep(ms) || ms.segment.project(center).distance_m > radius_m {
+                        continue;
+                    }
+                    // Report each segment from one cell only: its first cell inside the
+                    // query rectangle, in the same row-major order as this loop.
+                    if self.spec().first_cell_of_segment_in(&ms.segment, &rect) == Some(cell) {
+                        f(usize::from(i), ms);
+                    }
+                }
+            }
+        }
+    }
+}
