@@ -14,9 +14,11 @@
 //! Frames: world (the map's, metres), vehicle (x forward, y left), sensor (the LMS511's).
 //! The simulator's own state is `f64`; what goes into loc-core is `f32`, as on the MCU.
 
+pub mod closed_loop;
 pub mod landmarks;
 pub mod lidar;
 pub mod metrics;
+pub mod output;
 pub mod raycast;
 pub mod scenario;
 pub mod vehicle;

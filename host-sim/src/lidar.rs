@@ -2,9 +2,11 @@
 //! view, Gaussian range noise plus an optional systematic error, no echo beyond 80 m, and
 //! ranges delivered as `u16` millimetres per beam, as in the `LMDscandata` DIST1 channel.
 //!
-//! Frames: beam angles are in the sensor frame (0 along the sensor's x axis, positive
-//! counter-clockwise, from −95° to +95°); the sensor's mounting pose is given in the
-//! vehicle frame.
+//! Frames: beam angles are in the sensor frame as the telegram reports them, −5° to +185°
+//! counter-clockwise with 90° straight out of the scanner's front; the mounting pose is the
+//! sensor frame in the vehicle frame, so a forward-looking scanner has yaw −90° (the
+//! convention of loc-core's `SensorSetup`). Beams are cast at the exact resolution
+//! (1/6°, …); the telegram's 1/10000° step (1667) is a rounding of it.
 
 use loc_core::rng::Pcg32;
 
@@ -80,9 +82,12 @@ impl ScanRate {
 /// Field of view, degrees.
 pub const FIELD_OF_VIEW_DEG: f64 = 190.0;
 
-/// Angle of the first beam in the sensor frame, radians (−95°).
+/// Angle of the first beam in the sensor frame, 1/10000 degree (−5°), as in the telegram.
+pub const FIRST_BEAM_1E4_DEG: i32 = -50_000;
+
+/// Angle of the first beam in the sensor frame, radians (−5°).
 pub fn first_beam_angle_rad() -> f64 {
-    -(95.0f64.to_radians())
+    (f64::from(FIRST_BEAM_1E4_DEG) / 1e4).to_radians()
 }
 
 /// Lidar parameters.
@@ -102,7 +107,8 @@ pub struct LidarSpec {
     pub mount_x_m: f64,
     /// Mounting pose in the vehicle frame: y left, metres.
     pub mount_y_m: f64,
-    /// Mounting yaw in the vehicle frame, radians.
+    /// Mounting yaw of the sensor frame in the vehicle frame, radians (−π/2: the 90° beam
+    /// looks straight ahead).
     pub mount_yaw_rad: f64,
 }
 
@@ -115,7 +121,7 @@ impl Default for LidarSpec {
             max_range_m: 80.0,
             mount_x_m: 1.0,
             mount_y_m: 0.0,
-            mount_yaw_rad: 0.0,
+            mount_yaw_rad: -std::f64::consts::FRAC_PI_2,
         }
     }
 }
@@ -241,7 +247,9 @@ mod tests {
         // Noise statistics over the wall beams near ±90°.
         let errs: Vec<f64> = (0..1141)
             .filter_map(|i| {
-                let a = scan.start_angle_rad + i as f64 * scan.step_rad;
+                // Vehicle-frame angle: sensor angle plus the −90° mounting yaw.
+                let a = scan.start_angle_rad + i as f64 * scan.step_rad
+                    - std::f64::consts::FRAC_PI_2;
                 let truth = 2.0 / a.sin().abs();
                 let r = f64::from(scan.ranges_mm[i]) / 1000.0;
                 (a.sin().abs() > 0.5 && r > 0.0).then_some(r - truth)

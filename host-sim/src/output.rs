@@ -1,0 +1,265 @@
+//! Files a run leaves in `--out DIR`: the trajectories as CSV, the metrics as JSON, and the
+//! scenario as TOML (to rerun it exactly). Also the flat JSON metrics object that `--json`
+//! prints.
+
+use std::fmt;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::closed_loop::{RunLog, WorldSummary};
+use crate::metrics::{DistanceBin, Metrics};
+
+/// Why output could not be written.
+#[derive(Debug)]
+pub struct OutputError {
+    /// The file or directory.
+    pub path: PathBuf,
+    /// The OS error.
+    pub source: std::io::Error,
+}
+
+impl fmt::Display for OutputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "cannot write {}: {} (check that the directory is writable)",
+            self.path.display(),
+            self.source
+        )
+    }
+}
+
+impl std::error::Error for OutputError {}
+
+/// The metrics of one run as one flat JSON object (the `--json` output and
+/// `metrics.json`). Lengths in metres, angles in radians, times in microseconds or seconds.
+#[derive(Debug, Clone, Serialize)]
+pub struct MetricsJson {
+    /// Scenario name.
+    pub scenario: String,
+    /// Landmark model code or "none".
+    pub landmarks: String,
+    /// Landmark genes W,H,D[,h1..h6].
+    pub genes: Vec<f64>,
+    /// Matcher name.
+    pub matcher: String,
+    /// Estimator name.
+    pub estimator: String,
+    /// Seed.
+    pub seed: u64,
+    /// Localiser position RMS, metres.
+    pub position_rms_m: f64,
+    /// Localiser heading RMS, radians.
+    pub heading_rms_rad: f64,
+    /// Eq. 2 MSE (m² + rad²).
+    pub mse_eq2: f64,
+    /// Square root of eq. 2.
+    pub rms_eq2: f64,
+    /// Largest localiser position error, metres.
+    pub max_position_error_m: f64,
+    /// Localiser along-tunnel RMS, metres.
+    pub along_rms_m: f64,
+    /// Localiser across-tunnel RMS, metres.
+    pub across_rms_m: f64,
+    /// Largest along-tunnel error, metres.
+    pub max_along_error_m: f64,
+    /// Localiser position RMS over the first 100 m, metres.
+    pub first_100m_position_rms_m: f64,
+    /// Localiser position RMS over the last 100 m, metres.
+    pub last_100m_position_rms_m: f64,
+    /// Localiser position error at the end, metres.
+    pub final_position_error_m: f64,
+    /// Odometry-alone position RMS, metres.
+    pub odometry_position_rms_m: f64,
+    /// Odometry-alone heading RMS, radians.
+    pub odometry_heading_rms_rad: f64,
+    /// Odometry-alone eq. 2 MSE.
+    pub odometry_mse_eq2: f64,
+    /// Odometry-alone along-tunnel RMS, metres.
+    pub odometry_along_rms_m: f64,
+    /// Odometry-alone across-tunnel RMS, metres.
+    pub odometry_across_rms_m: f64,
+    /// Odometry-alone largest position error, metres.
+    pub odometry_max_position_error_m: f64,
+    /// Odometry-alone position error at the end, metres.
+    pub odometry_final_position_error_m: f64,
+    /// Scans processed.
+    pub scans: usize,
+    /// Distance driven, metres.
+    pub distance_m: f64,
+    /// Simulated time, seconds.
+    pub sim_time_s: f64,
+    /// Mean localiser time per scan, microseconds.
+    pub mean_us_per_scan: f64,
+    /// Largest localiser time per scan, microseconds.
+    pub max_us_per_scan: f64,
+    /// Wall-clock time of the run, seconds.
+    pub wall_time_s: f64,
+    /// Of which ray casting, seconds.
+    pub raycast_time_s: f64,
+    /// Simulated over wall-clock time.
+    pub real_time_factor: f64,
+    /// World summary.
+    pub world: WorldSummary,
+    /// Count of scans per estimator status.
+    pub status_counts: std::collections::BTreeMap<String, usize>,
+    /// Error against distance driven (10 m bins).
+    pub by_distance: Vec<DistanceBin>,
+}
+
+impl MetricsJson {
+    /// Flattens a run's metrics.
+    pub fn new(log: &RunLog, m: &Metrics) -> Self {
+        let (l, o) = (&m.localizer, &m.odometry);
+        let choice = log.scenario.landmark_choice().ok();
+        let mut status_counts = std::collections::BTreeMap::new();
+        for s in &log.statuses {
+            *status_counts.entry(s.clone()).or_insert(0) += 1;
+        }
+        Self {
+            scenario: log.scenario.name.clone(),
+            landmarks: choice.map_or_else(|| "?".into(), |c| c.code().to_string()),
+            genes: choice.map(|c| c.genes()).unwrap_or_default(),
+            matcher: log.scenario.localizer.matcher.name().into(),
+            estimator: log.estimator.clone(),
+            seed: log.scenario.seed,
+            position_rms_m: l.position_rms_m,
+            heading_rms_rad: l.heading_rms_rad,
+            mse_eq2: l.mse_eq2,
+            rms_eq2: l.rms_eq2,
+            max_position_error_m: l.max_position_error_m,
+            along_rms_m: l.along_rms_m,
+            across_rms_m: l.across_rms_m,
+            max_along_error_m: l.max_along_error_m,
+            first_100m_position_rms_m: l.first_100m_position_rms_m,
+            last_100m_position_rms_m: l.last_100m_position_rms_m,
+            final_position_error_m: l.final_position_error_m,
+            odometry_position_rms_m: o.position_rms_m,
+            odometry_heading_rms_rad: o.heading_rms_rad,
+            odometry_mse_eq2: o.mse_eq2,
+            odometry_along_rms_m: o.along_rms_m,
+            odometry_across_rms_m: o.across_rms_m,
+            odometry_max_position_error_m: o.max_position_error_m,
+            odometry_final_position_error_m: o.final_position_error_m,
+            scans: m.scans,
+            distance_m: m.distance_m,
+            sim_time_s: m.sim_time_s,
+            mean_us_per_scan: m.mean_us_per_scan,
+            max_us_per_scan: m.max_us_per_scan,
+            wall_time_s: log.wall_time_s,
+            raycast_time_s: log.raycast_time_s,
+            real_time_factor: log.real_time_factor(),
+            world: log.world,
+            status_counts,
+            by_distance: m.by_distance.clone(),
+        }
+    }
+
+    /// As one line of JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+    }
+}
+
+/// Writes the trajectories CSV: one row per scan with time, distance, chainage, the true,
+/// estimated and odometry poses, the estimate's σ, the status and the update time.
+pub fn write_trajectories_csv(log: &RunLog, w: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "t_s,distance_m,chainage_m,true_x_m,true_y_m,true_theta_rad,est_x_m,est_y_m,est_theta_rad,odo_x_m,odo_y_m,odo_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad,status,update_us"
+    )?;
+    for (s, status) in log.samples.iter().zip(&log.statuses) {
+        writeln!(
+            w,
+            "{:.3},{:.4},{:.4},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{},{:.1}",
+            s.t_s,
+            s.distance_m,
+            s.chainage_m,
+            s.truth.x_m,
+            s.truth.y_m,
+            s.truth.theta_rad,
+            s.estimate.x_m,
+            s.estimate.y_m,
+            s.estimate.theta_rad,
+            s.odometry.x_m,
+            s.odometry.y_m,
+            s.odometry.theta_rad,
+            s.sigma.0,
+            s.sigma.1,
+            s.sigma.2,
+            status,
+            s.update_us
+        )?;
+    }
+    Ok(())
+}
+
+fn write_file(path: &Path, f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), OutputError> {
+    let err = |source| OutputError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::create(path).map_err(err)?;
+    let mut w = std::io::BufWriter::new(file);
+    f(&mut w).map_err(err)?;
+    w.flush().map_err(err)
+}
+
+/// Writes `trajectories.csv`, `metrics.json` and `scenario.toml` into `dir` (created if
+/// needed); `prefix` is prepended to each name (e.g. `"p1-"`). Returns the paths written.
+pub fn write_run(dir: &Path, prefix: &str, log: &RunLog, m: &Metrics) -> Result<Vec<PathBuf>, OutputError> {
+    std::fs::create_dir_all(dir).map_err(|source| OutputError {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let csv = dir.join(format!("{prefix}trajectories.csv"));
+    write_file(&csv, |w| write_trajectories_csv(log, w))?;
+    let json = dir.join(format!("{prefix}metrics.json"));
+    let body = serde_json::to_string_pretty(&MetricsJson::new(log, m)).unwrap_or_default();
+    write_file(&json, |w| w.write_all(body.as_bytes()))?;
+    let toml = dir.join(format!("{prefix}scenario.toml"));
+    let text = log.scenario.to_toml();
+    write_file(&toml, |w| w.write_all(text.as_bytes()))?;
+    Ok(vec![csv, json, toml])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::closed_loop::{run, OdometryOnly, RunOptions};
+    use crate::scenario::named::named;
+    use crate::scenario::Scenario;
+
+    #[test]
+    fn writes_csv_json_and_a_scenario_that_reruns() {
+        let s = named("paper-10m").unwrap();
+        let world = s.build_world().unwrap();
+        let log = run(&s, &world, &mut OdometryOnly::default(), &RunOptions::default());
+        let m = log.metrics();
+        let dir = tempfile::tempdir().unwrap();
+        let files = write_run(dir.path(), "", &log, &m).unwrap();
+        let csv = std::fs::read_to_string(&files[0]).unwrap();
+        assert_eq!(csv.lines().count(), log.samples.len() + 1);
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&files[1]).unwrap()).unwrap();
+        for key in [
+            "position_rms_m",
+            "heading_rms_rad",
+            "mse_eq2",
+            "max_position_error_m",
+            "odometry_position_rms_m",
+            "first_100m_position_rms_m",
+            "last_100m_position_rms_m",
+            "scans",
+            "mean_us_per_scan",
+        ] {
+            assert!(json.get(key).is_some(), "missing {key}");
+        }
+        assert_eq!(json["scans"], log.samples.len());
+        let again = Scenario::from_file(&files[2]).unwrap();
+        assert_eq!(again.seed, s.seed);
+        assert_eq!(again.tunnel, s.tunnel);
+    }
+}
