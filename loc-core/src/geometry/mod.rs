@@ -8,5 +8,5 @@ mod pose;
 mod segment;
 
 pub use point::Point2;
-pub use pose::Pose2;
+pub use pose::{Pose2, PoseTransform};
 pub use segment::{Segment, SegmentProjection};

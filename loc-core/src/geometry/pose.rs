@@ -46,29 +46,36 @@ impl Pose2 {
         Point2::new(self.x_m, self.y_m)
     }
 
-    /// Maps a point from this pose's child frame into its parent frame.
+    /// This pose with its rotation's sine and cosine evaluated once: use it to map many
+    /// points (per-point loops must not recompute trigonometry).
+    #[inline]
+    pub fn transform(&self) -> PoseTransform {
+        let (sin, cos) = math::sin_cos(self.theta_rad);
+        PoseTransform {
+            cos,
+            sin,
+            x_m: self.x_m,
+            y_m: self.y_m,
+        }
+    }
+
+    /// Maps a point from this pose's child frame into its parent frame (one `sin_cos`; for
+    /// many points use [`Pose2::transform`]).
     #[inline]
     pub fn transform_point(&self, p: Point2) -> Point2 {
-        let (s, c) = math::sin_cos(self.theta_rad);
-        Point2::new(
-            c * p.x_m - s * p.y_m + self.x_m,
-            s * p.x_m + c * p.y_m + self.y_m,
-        )
+        self.transform().apply(p)
     }
 
     /// Rotates a vector (no translation) from the child frame into the parent frame.
     #[inline]
     pub fn rotate_vector(&self, v: Point2) -> Point2 {
-        let (s, c) = math::sin_cos(self.theta_rad);
-        Point2::new(c * v.x_m - s * v.y_m, s * v.x_m + c * v.y_m)
+        self.transform().rotate(v)
     }
 
     /// Maps a point from the parent frame into this pose's child frame.
     #[inline]
     pub fn inverse_transform_point(&self, p: Point2) -> Point2 {
-        let (s, c) = math::sin_cos(self.theta_rad);
-        let d = p.sub(self.translation());
-        Point2::new(c * d.x_m + s * d.y_m, -s * d.x_m + c * d.y_m)
+        self.transform().apply_inverse(p)
     }
 
     /// Composition `self ∘ other`: `other` expressed in `self`'s child frame, result in
@@ -129,5 +136,48 @@ mod tests {
         let p = Point2::new(-0.3, 4.0);
         let q = a.inverse_transform_point(a.transform_point(p));
         assert!((p.x_m - q.x_m).abs() < 1e-5 && (p.y_m - q.y_m).abs() < 1e-5);
+    }
+}
+
+/// A [`Pose2`] prepared for mapping many points: the rotation's cosine and sine are
+/// evaluated once. Same frame convention as the pose it came from
+/// (`p_parent = R · p_child + t`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseTransform {
+    /// cos(theta).
+    pub cos: f32,
+    /// sin(theta).
+    pub sin: f32,
+    /// Translation x, metres.
+    pub x_m: f32,
+    /// Translation y, metres.
+    pub y_m: f32,
+}
+
+impl PoseTransform {
+    /// Maps a point from the child frame into the parent frame.
+    #[inline]
+    pub fn apply(&self, p: Point2) -> Point2 {
+        Point2::new(
+            self.cos * p.x_m - self.sin * p.y_m + self.x_m,
+            self.sin * p.x_m + self.cos * p.y_m + self.y_m,
+        )
+    }
+
+    /// Rotates a vector from the child frame into the parent frame (no translation).
+    #[inline]
+    pub fn rotate(&self, v: Point2) -> Point2 {
+        Point2::new(
+            self.cos * v.x_m - self.sin * v.y_m,
+            self.sin * v.x_m + self.cos * v.y_m,
+        )
+    }
+
+    /// Maps a point from the parent frame into the child frame.
+    #[inline]
+    pub fn apply_inverse(&self, p: Point2) -> Point2 {
+        let dx = p.x_m - self.x_m;
+        let dy = p.y_m - self.y_m;
+        Point2::new(self.cos * dx + self.sin * dy, -self.sin * dx + self.cos * dy)
     }
 }
