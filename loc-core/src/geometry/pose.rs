@@ -178,6 +178,9 @@ impl PoseTransform {
     pub fn apply_inverse(&self, p: Point2) -> Point2 {
         let dx = p.x_m - self.x_m;
         let dy = p.y_m - self.y_m;
-        Point2::new(self.cos * dx + self.sin * dy, -self.sin * dx + self.cos * dy)
+        Point2::new(
+            self.cos * dx + self.sin * dy,
+            -self.sin * dx + self.cos * dy,
+        )
     }
 }
