@@ -21,5 +21,6 @@ pub mod metrics;
 pub mod output;
 pub mod raycast;
 pub mod scenario;
+pub mod stored_map;
 pub mod vehicle;
 pub mod world;

@@ -1,0 +1,128 @@
+//! The localiser's map of a simulated world: the design (ideal walls at ± width / 2 and
+//! every landmark of the layout as designed, missing or damaged ones included) in
+//! loc-core's stored map, the same fixed-capacity [`TunnelMap`] the firmware uses.
+//!
+//! loc-core places a landmark by arc length along its wall polyline; the simulator places
+//! it by centre-line chainage. The conversion projects the designed anchor onto the design
+//! wall polyline, so both agree to the polyline's simplification tolerance.
+
+use loc_core::geometry::Point2;
+use loc_core::landmark::LandmarkShape;
+use loc_core::map::{LandmarkPlacement, MapError, TunnelMap, WallSide as CoreWall};
+
+use crate::landmarks::LandmarkChoice;
+use crate::world::layout::WallSide;
+use crate::world::World;
+
+/// Largest distance a dropped vertex of the design walls may be from the stored polyline,
+/// metres (well under the lidar's noise).
+pub const WALL_TOLERANCE_M: f64 = 0.002;
+
+/// Cell size of the stored map's index, metres.
+pub const MAP_CELL_M: f32 = 2.0;
+
+fn to_points(pts: &[(f64, f64)]) -> Vec<Point2> {
+    pts.iter().map(|&(x, y)| Point2::new(x as f32, y as f32)).collect()
+}
+
+/// Arc length along `poly` of the point of `poly` closest to `p`, metres.
+fn arc_length_of(poly: &[(f64, f64)], p: (f64, f64)) -> f64 {
+    let mut best = (f64::INFINITY, 0.0);
+    let mut acc = 0.0;
+    for w in poly.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len2 = dx * dx + dy * dy;
+        let len = len2.sqrt();
+        if len2 > 0.0 {
+            let t = (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0);
+            let d2 = (p.0 - a.0 - t * dx).powi(2) + (p.1 - a.1 - t * dy).powi(2);
+            if d2 < best.0 {
+                best = (d2, acc + t * len);
+            }
+        }
+        acc += len;
+    }
+    best.1
+}
+
+/// The design walls as the stored map holds them: `(left, right)` world polylines.
+pub fn design_walls(world: &World) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    (
+        world.wall_polyline(WallSide::Left, false, WALL_TOLERANCE_M),
+        world.wall_polyline(WallSide::Right, false, WALL_TOLERANCE_M),
+    )
+}
+
+/// The landmark placements of the design, in loc-core's terms (wall, arc length, shape).
+pub fn design_placements(world: &World, choice: &LandmarkChoice) -> Vec<LandmarkPlacement> {
+    let LandmarkChoice::Shape(shape) = choice else {
+        return Vec::new();
+    };
+    let (left, right) = design_walls(world);
+    world
+        .placements()
+        .iter()
+        .map(|p| {
+            let (poly, wall) = match p.wall {
+                WallSide::Left => (&left, CoreWall::Left),
+                WallSide::Right => (&right, CoreWall::Right),
+            };
+            let lateral = match p.wall {
+                WallSide::Left => world.width_m() / 2.0,
+                WallSide::Right => -world.width_m() / 2.0,
+            };
+            let anchor = world.centerline().offset_point(p.s_m, lateral);
+            let s = arc_length_of(poly, anchor);
+            let LandmarkShape { model, genome } = *shape;
+            LandmarkPlacement::new(wall, s as f32, model, genome)
+        })
+        .collect()
+}
+
+/// Builds the stored map of `world`'s design into `map` (reused in place: it is large).
+pub fn build_into(map: &mut TunnelMap, world: &World, choice: &LandmarkChoice) -> Result<(), MapError> {
+    let (left, right) = design_walls(world);
+    let placements = design_placements(world, choice);
+    map.rebuild(&to_points(&left), &to_points(&right), &placements, MAP_CELL_M)
+}
+
+/// Builds the stored map of `world`'s design on the heap.
+pub fn build(world: &World, choice: &LandmarkChoice) -> Result<Box<TunnelMap>, MapError> {
+    let mut map = Box::<TunnelMap>::default();
+    build_into(&mut map, world, choice)?;
+    Ok(map)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::named::named;
+    use loc_core::map::MapQuery;
+
+    #[test]
+    fn the_kilometre_fits_the_firmware_map_and_matches_the_design() {
+        let s = named("tunnel-1km").unwrap();
+        let world = s.build_world().unwrap();
+        let choice = s.landmark_choice().unwrap();
+        let map = build(&world, &choice).unwrap();
+        assert_eq!(map.landmarks().len(), world.placements().len());
+        // Every designed landmark's world polyline coincides with the stored one.
+        for (i, lm) in map.landmarks().iter().enumerate() {
+            let designed = world.landmark_polyline(i, false);
+            let first = map.segments()[usize::from(lm.first_segment)].segment.a;
+            let d = (f64::from(first.x_m) - designed[0].0).hypot(f64::from(first.y_m) - designed[0].1);
+            assert!(d < 0.01, "landmark {i}: {d} m apart");
+        }
+        // A ray across the tunnel from the centre line meets a wall at half the width.
+        let (x, y, h) = world.centerline().pose_at(500.0);
+        let hit = map
+            .raycast(
+                Point2::new(x as f32, y as f32),
+                (h + std::f64::consts::FRAC_PI_2) as f32,
+                10.0,
+            )
+            .unwrap();
+        assert!((hit.range_m - 2.5).abs() < 0.01, "{}", hit.range_m);
+    }
+}
