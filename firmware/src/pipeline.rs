@@ -1,11 +1,12 @@
 //! The per-scan processing chain the controller runs, stage by stage, with each stage's cost
 //! read from the board's counter.
 //!
-//! Stages today: raw u16 mm ranges → vehicle-frame points ([`loc_core::scan::Scan`]), then
-//! vehicle → world transform of every point at the current pose estimate.
+//! Stages: raw u16 mm ranges → vehicle-frame points ([`loc_core::scan::Scan`]); wall
+//! stripping ([`loc_core::strip::strip_walls`]).
 
-use loc_core::geometry::{Point2, Pose2};
-use loc_core::scan::{Scan, SensorSetup};
+use loc_core::geometry::Pose2;
+use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::strip::{strip_walls, PointLabel, StripConfig, StripSummary};
 
 use crate::board::Board;
 
@@ -14,19 +15,19 @@ use crate::board::Board;
 pub enum Stage {
     /// Raw u16 millimetre ranges to vehicle-frame points (`Scan::load_raw_mm`).
     ScanConversion,
-    /// Every valid point mapped into the world frame at the pose estimate.
-    WorldTransform,
+    /// RANSAC cubic wall fits and point labels (`strip_walls`).
+    Strip,
 }
 
 impl Stage {
     /// Every stage, in execution order.
-    pub const ALL: [Stage; 2] = [Stage::ScanConversion, Stage::WorldTransform];
+    pub const ALL: [Stage; 2] = [Stage::ScanConversion, Stage::Strip];
 
     /// Short name for reports.
     pub const fn name(self) -> &'static str {
         match self {
             Stage::ScanConversion => "scan",
-            Stage::WorldTransform => "world",
+            Stage::Strip => "strip",
         }
     }
 }
@@ -42,13 +43,21 @@ impl StageCosts {
     }
 }
 
-/// The state the chain keeps between scans.
+/// What one scan produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanOutcome {
+    /// Per-stage cost.
+    pub costs: StageCosts,
+    /// The walls found and the label counts.
+    pub strip: StripSummary,
+}
+
+/// The state the chain keeps between scans (about 1.2 KiB plus the caller's [`Scan`]).
 pub struct Pipeline {
     setup: SensorSetup,
+    strip_config: StripConfig,
+    labels: [PointLabel; LMS511_MAX_BEAMS],
     pose: Pose2,
-    /// Sum of the world-frame points of the last scan (keeps the transform observable, so the
-    /// optimiser cannot drop it).
-    last_centroid: Point2,
 }
 
 impl Pipeline {
@@ -57,8 +66,9 @@ impl Pipeline {
     pub fn new(initial_pose: Pose2) -> Self {
         Self {
             setup: SensorSetup::lms511_forward(0.0, 0.0),
+            strip_config: StripConfig::default(),
+            labels: [PointLabel::Outlier; LMS511_MAX_BEAMS],
             pose: initial_pose,
-            last_centroid: Point2::ORIGIN,
         }
     }
 
@@ -67,27 +77,21 @@ impl Pipeline {
         self.pose
     }
 
-    /// Centroid of the last scan's points in the world frame, metres.
-    pub fn last_centroid(&self) -> Point2 {
-        self.last_centroid
+    /// Labels of the last scan's points (beam order of [`Scan::points`]).
+    pub fn labels(&self) -> &[PointLabel] {
+        &self.labels
     }
 
     /// Processes one scan of raw ranges (mm, 0 = no echo) into `scan` (reused buffer) and
     /// returns what each stage cost on `board`'s counter.
-    pub fn process<B: Board>(&mut self, board: &B, scan: &mut Scan, raw_mm: &[u16]) -> StageCosts {
+    pub fn process<B: Board>(&mut self, board: &B, scan: &mut Scan, raw_mm: &[u16]) -> ScanOutcome {
         let mut costs = StageCosts::default();
         let t0 = board.counter_now();
         scan.load_raw_mm(&self.setup, raw_mm, 1.0, 0.0);
         let t1 = board.counter_now();
-        let mut sum = Point2::ORIGIN;
-        for p in scan.points() {
-            sum = sum.add(self.pose.transform_point(p.vehicle));
-        }
-        let n = scan.len().max(1) as f32;
-        self.last_centroid = sum.scale(1.0 / n);
+        let strip = strip_walls(scan.points(), &self.strip_config, &mut self.labels);
         let t2 = board.counter_now();
-        costs.0[0] = t1 - t0;
-        costs.0[1] = t2 - t1;
-        costs
+        costs.0 = [t1 - t0, t2 - t1];
+        ScanOutcome { costs, strip }
     }
 }

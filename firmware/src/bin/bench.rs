@@ -67,7 +67,7 @@ fn main() -> ! {
             defmt::error!("recorded scan {=usize} missing", k);
             SelectedBoard::exit(ExitStatus::Failure)
         }
-        let costs = pipeline.process(&board, scan, &raw);
+        let costs = pipeline.process(&board, scan, &raw).costs;
         for (s, c) in stats.iter_mut().zip(costs.0) {
             s.record(c);
         }

@@ -23,7 +23,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard) {
         pose_frame_rejects_corruption,
     );
     runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
-    runner.run("recorded_scans_convert", || recorded_scans_convert(board));
+    runner.run("recorded_scans_convert_and_strip", || {
+        recorded_scans_convert_and_strip(board)
+    });
 }
 
 /// Iterations of the calibration loop (4 instructions each): 1 M instructions.
@@ -140,9 +142,9 @@ fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     Ok(())
 }
 
-/// Every recorded scan converts to points, and their centroid at the true pose lies inside
-/// the 5 m wide tunnel.
-fn recorded_scans_convert(board: &SelectedBoard) -> TestResult {
+/// Every recorded scan converts to points and both tunnel walls are found in it, with most
+/// points on them (the recording is a straight tunnel).
+fn recorded_scans_convert_and_strip(board: &SelectedBoard) -> TestResult {
     let Some(scan) = cortex_m::singleton!(: Scan = Scan::new()) else {
         return Err("scan buffer already taken");
     };
@@ -150,13 +152,20 @@ fn recorded_scans_convert(board: &SelectedBoard) -> TestResult {
     for (k, &[x, y, th]) in TRUE_POSES.iter().enumerate().take(SCAN_COUNT) {
         check(recorded::load_scan_mm(k, &mut raw), "recorded scan missing")?;
         let mut pipeline = Pipeline::new(Pose2::new(x, y, th));
-        pipeline.process(board, scan, &raw);
+        let outcome = pipeline.process(board, scan, &raw);
         check(
             scan.len() > 1000,
             "fewer than 1000 valid beams in a recorded scan",
         )?;
-        let c = pipeline.last_centroid();
-        check(c.y_m.abs() < 2.5, "scan centroid outside the tunnel")?;
+        check(
+            outcome.strip.left.is_some() && outcome.strip.right.is_some(),
+            "stripping did not find both walls",
+        )?;
+        let c = outcome.strip.counts;
+        check(
+            u32::from(c.left_wall) + u32::from(c.right_wall) > 500,
+            "fewer than 500 wall points",
+        )?;
     }
     Ok(())
 }
