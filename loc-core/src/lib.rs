@@ -33,6 +33,7 @@
     )
 )]
 
+pub mod filter;
 pub mod geometry;
 pub mod landmark;
 pub mod map;

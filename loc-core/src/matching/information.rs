@@ -68,26 +68,40 @@ impl NormalEquations {
 /// `diag(1, 1, 1/L)`: maps state increments to scaled ones (`θ` in metres at distance `L`)
 /// when used on matrices as `S·M·S`.
 fn scaling(rotation_scale_m: f32) -> Matrix3<f32> {
-    let l = if rotation_scale_m.is_finite() && rotation_scale_m > 0.0 {
+    Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / valid_scale(rotation_scale_m)))
+}
+
+/// `L` itself, 1 m when not finite and positive.
+fn valid_scale(rotation_scale_m: f32) -> f32 {
+    if rotation_scale_m.is_finite() && rotation_scale_m > 0.0 {
         rotation_scale_m
     } else {
         1.0
-    };
-    Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / l))
+    }
 }
 
-/// The directions of state space the information pins down: eigenvectors of the scaled
-/// information with eigenvalue at least `min_information`, as columns of `basis`
-/// (world-frame state increments, `(x_m, y_m, theta_rad)`); columns past `rank` are zero.
+/// The directions of state space the information pins down: the eigenvectors of the scaled
+/// information `S·I·S` (`S = diag(1, 1, 1/L)`, scaled state `(x_m, y_m, L·theta_rad)`) with
+/// eigenvalue at least `min_information`. Columns past `rank` are zero.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObservableSubspace {
-    /// Orthonormal (in scaled coordinates) observed directions, unscaled back to
-    /// `(x_m, y_m, theta_rad)`; the first `rank` columns are valid.
-    pub basis: Matrix3<f32>,
-    /// The scaled eigenvalue of each column (same units as the information given).
+    /// Orthonormal observed eigenvectors in scaled coordinates; the first `rank` columns are
+    /// valid. As a state increment `(x_m, y_m, theta_rad)` column `v` is `S·v`; as a
+    /// measurement row (what the scan measures of the state) it is `vᵀ·S⁻¹`.
+    pub scaled_basis: Matrix3<f32>,
+    /// The eigenvalue of each column (units of the information given, scaled state).
     pub eigenvalues: Vector3<f32>,
     /// How many directions are observed (0–3).
     pub rank: usize,
+    /// The `L` used, metres.
+    pub rotation_scale_m: f32,
+}
+
+impl ObservableSubspace {
+    /// `S⁻¹ = diag(1, 1, L)`: maps state increments to scaled ones.
+    pub fn unscale(&self) -> Matrix3<f32> {
+        Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, self.rotation_scale_m))
+    }
 }
 
 /// Splits state space into observed and unobserved directions (see [`ObservableSubspace`]).
@@ -97,10 +111,12 @@ pub fn observable_subspace(
     min_information: f32,
     rotation_scale_m: f32,
 ) -> ObservableSubspace {
+    let l = valid_scale(rotation_scale_m);
     let none = ObservableSubspace {
-        basis: Matrix3::zeros(),
+        scaled_basis: Matrix3::zeros(),
         eigenvalues: Vector3::zeros(),
         rank: 0,
+        rotation_scale_m: l,
     };
     if !information.iter().all(|v| v.is_finite()) {
         return none;
@@ -112,10 +128,10 @@ pub fn observable_subspace(
     for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
         if lambda.is_finite() && lambda >= min_information && lambda > 0.0 {
             if let (Some(mut col), Some(e)) = (
-                out.basis.column_iter_mut().nth(out.rank),
+                out.scaled_basis.column_iter_mut().nth(out.rank),
                 out.eigenvalues.get_mut(out.rank),
             ) {
-                col.copy_from(&(s * v));
+                col.copy_from(&v);
                 *e = lambda;
                 out.rank += 1;
             }
@@ -147,8 +163,7 @@ pub fn truncated_step(
     // (BᵀHB)·y = −Bᵀg, B the observed (scaled-orthonormal) basis.
     let hs = s * eq.weighted * s;
     let gs = s * eq.gradient;
-    let si = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / s.m33));
-    let b_scaled = si * observed.basis;
+    let b_scaled = observed.scaled_basis;
     let mut y = Vector3::zeros();
     match observed.rank {
         1 => {
@@ -312,7 +327,7 @@ mod tests {
         let o = observable_subspace(&eq.information_points, 1.0, 10.0);
         assert_eq!(o.rank, 2);
         for k in 0..2 {
-            assert!(o.basis[(0, k)].abs() < 1e-4);
+            assert!(o.scaled_basis[(0, k)].abs() < 1e-4);
         }
     }
 

@@ -1,0 +1,128 @@
+//! The pose filter (paper §4.3): an extended Kalman filter over the vehicle pose
+//! `(x_m, y_m, theta_rad)` in the world frame.
+//!
+//! - [`Ekf::predict`]: odometry increments (vehicle frame) with a covariance given or from an
+//!   [`OdometryNoise`] model proportional to the distance travelled.
+//! - [`Ekf::update`]: a scan-match pose with its point-to-line information. Only the
+//!   directions the scan observes are updated: the information is split into eigen-directions
+//!   (θ scaled by a length, see [`crate::matching::observable_subspace`]) and those below the
+//!   threshold are dropped, i.e. the update is projected onto the observable subspace. In a
+//!   smooth tunnel with no landmark in view the along-tunnel direction is unobserved, so the
+//!   estimate along it follows odometry alone and its variance keeps growing like odometry's
+//!   (a Kalman update never increases any variance: the filter is never worse than odometry).
+//! - Chi-square gating of the projected innovation (dof = observed directions); Joseph-form
+//!   covariance update; covariance kept symmetric, positive definite and bounded.
+
+mod predict;
+mod update;
+
+pub use predict::{OdometryIncrement, OdometryNoise, OdometryRejection};
+pub use update::{GateProbability, UpdateConfig, UpdateRejection, UpdateReport};
+
+use core::fmt;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::geometry::Pose2;
+
+/// Largest variance the filter keeps, m² (and rad² for heading): variances are clamped here
+/// so a long run without scans stays finite.
+pub const MAX_VARIANCE: f32 = 1.0e6;
+
+/// Smallest variance the filter keeps on the diagonal, m² / rad² (keeps P positive definite
+/// in f32).
+pub const MIN_VARIANCE: f32 = 1.0e-10;
+
+/// The EKF state: the vehicle pose in the world and its covariance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ekf {
+    pose: Pose2,
+    covariance: Matrix3<f32>,
+}
+
+/// Why a filter could not be created.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FilterInitError {
+    /// The pose has a NaN or infinite component: give a finite initial pose.
+    NonFinitePose,
+    /// The covariance is not finite, symmetric and positive definite: give e.g. a diagonal
+    /// of positive variances.
+    InvalidCovariance,
+}
+
+impl fmt::Display for FilterInitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FilterInitError::NonFinitePose => write!(f, "initial pose is not finite"),
+            FilterInitError::InvalidCovariance => write!(
+                f,
+                "initial covariance must be finite, symmetric and positive definite"
+            ),
+        }
+    }
+}
+
+impl Ekf {
+    /// A filter at `pose` (vehicle in world) with covariance `covariance` of
+    /// `(x_m, y_m, theta_rad)`.
+    pub fn new(pose: Pose2, covariance: Matrix3<f32>) -> Result<Self, FilterInitError> {
+        if !pose.is_finite() {
+            return Err(FilterInitError::NonFinitePose);
+        }
+        let sym_err = (covariance - covariance.transpose()).abs().max();
+        if !covariance.iter().all(|v| v.is_finite())
+            || sym_err > 1e-6 * covariance.abs().max().max(1.0)
+            || covariance.cholesky().is_none()
+        {
+            return Err(FilterInitError::InvalidCovariance);
+        }
+        let mut ekf = Self { pose, covariance };
+        ekf.condition();
+        Ok(ekf)
+    }
+
+    /// The pose estimate (vehicle frame in the world frame).
+    pub fn pose(&self) -> Pose2 {
+        self.pose
+    }
+
+    /// The covariance of `(x_m, y_m, theta_rad)`: m², m·rad, rad².
+    pub fn covariance(&self) -> Matrix3<f32> {
+        self.covariance
+    }
+
+    /// Keeps P symmetric, its diagonal in `[MIN_VARIANCE, MAX_VARIANCE]` and positive
+    /// definite. Clamping scales rows and columns together (`D·P·D`), which keeps P positive
+    /// semi-definite; a failed Cholesky adds a small diagonal load.
+    fn condition(&mut self) {
+        let mut p = 0.5 * (self.covariance + self.covariance.transpose());
+        if !p.iter().all(|v| v.is_finite()) {
+            // Unreachable with finite inputs; recover to "know nothing" rather than go NaN.
+            p = Matrix3::identity() * MAX_VARIANCE;
+        }
+        let d = Vector3::from_iterator(p.diagonal().iter().map(|&v| {
+            if v > MAX_VARIANCE {
+                crate::math::sqrt(MAX_VARIANCE / v)
+            } else {
+                1.0
+            }
+        }));
+        let dm = Matrix3::from_diagonal(&d);
+        p = dm * p * dm;
+        for (i, v) in p.diagonal().iter().enumerate() {
+            if *v < MIN_VARIANCE {
+                if let Some(e) = p.get_mut((i, i)) {
+                    *e = MIN_VARIANCE;
+                }
+            }
+        }
+        if p.cholesky().is_none() {
+            let load = p.diagonal().max() * 1e-6 + MIN_VARIANCE;
+            p += Matrix3::identity() * load;
+        }
+        self.covariance = p;
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,124 @@
+use super::*;
+use crate::geometry::Pose2;
+
+fn diag(a: f32, b: f32, c: f32) -> Matrix3<f32> {
+    Matrix3::from_diagonal(&Vector3::new(a, b, c))
+}
+
+#[test]
+fn rejects_bad_initialisation() {
+    assert_eq!(
+        Ekf::new(Pose2::new(f32::NAN, 0.0, 0.0), diag(1.0, 1.0, 1.0)),
+        Err(FilterInitError::NonFinitePose)
+    );
+    assert_eq!(
+        Ekf::new(Pose2::IDENTITY, diag(1.0, -1.0, 1.0)),
+        Err(FilterInitError::InvalidCovariance)
+    );
+}
+
+#[test]
+fn prediction_moves_in_vehicle_frame_and_grows_covariance() {
+    let mut ekf = Ekf::new(
+        Pose2::new(1.0, 2.0, core::f32::consts::FRAC_PI_2),
+        diag(1e-4, 1e-4, 1e-6),
+    )
+    .unwrap();
+    let noise = OdometryNoise::default();
+    let step = OdometryIncrement {
+        dx_m: 1.0,
+        dy_m: 0.0,
+        dtheta_rad: 0.0,
+    };
+    ekf.predict(&step, &noise).unwrap();
+    let p = ekf.pose();
+    assert!((p.x_m - 1.0).abs() < 1e-5 && (p.y_m - 3.0).abs() < 1e-5);
+    let c = ekf.covariance();
+    // Heading north: along-track (y) variance grows by (3 % of 1 m)², cross-track less.
+    assert!(c[(1, 1)] > 1e-4 + 0.8 * 0.03f32.powi(2));
+    assert!(c[(0, 0)] < c[(1, 1)]);
+    assert!(matches!(
+        ekf.predict(
+            &OdometryIncrement {
+                dx_m: f32::NAN,
+                ..step
+            },
+            &noise
+        ),
+        Err(OdometryRejection::NonFinite)
+    ));
+    assert!(matches!(
+        ekf.predict(&OdometryIncrement { dx_m: 1e9, ..step }, &noise),
+        Err(OdometryRejection::StepTooLarge { .. })
+    ));
+    assert_eq!(ekf.pose(), p);
+}
+
+#[test]
+fn update_leaves_unobserved_direction_to_odometry() {
+    // Prior: 0.5 m along x (tunnel axis), 0.1 m across, 3°.
+    let prior = Pose2::new(10.5, 0.1, 3f32.to_radians());
+    let p0 = diag(0.25, 0.01, 3f32.to_radians().powi(2));
+    let mut ekf = Ekf::new(prior, p0).unwrap();
+    // A smooth-tunnel match: observes y and θ only, says (10.0, 0.0, 0.0).
+    let info = diag(0.0, 1e6, 1e7);
+    let report = ekf
+        .update(Pose2::new(10.0, 0.0, 0.0), &info, &UpdateConfig::default())
+        .unwrap();
+    assert_eq!(report.observed_directions, 2);
+    let p = ekf.pose();
+    assert!((p.x_m - 10.5).abs() < 1e-5, "{p:?}");
+    assert!(p.y_m.abs() < 0.01 && p.theta_rad.abs() < 1e-3, "{p:?}");
+    let c = ekf.covariance();
+    assert!((c[(0, 0)] - 0.25).abs() < 1e-6, "{c}");
+    assert!(c[(1, 1)] < 1e-4);
+    assert!(c.cholesky().is_some());
+}
+
+#[test]
+fn full_update_and_gate() {
+    let mut ekf = Ekf::new(Pose2::new(0.05, 0.0, 0.0), diag(0.01, 0.01, 1e-3)).unwrap();
+    let info = diag(1e6, 1e6, 1e7);
+    let cfg = UpdateConfig::default();
+    let r = ekf.update(Pose2::IDENTITY, &info, &cfg).unwrap();
+    assert_eq!(r.observed_directions, 3);
+    assert!(ekf.pose().x_m.abs() < 2e-3);
+    // A match 2 m away with a tight prior fails the gate and changes nothing.
+    let before = ekf;
+    let e = ekf
+        .update(Pose2::new(2.0, 0.0, 0.0), &info, &cfg)
+        .unwrap_err();
+    assert!(
+        matches!(e, UpdateRejection::FailedGate { dof: 3, .. }),
+        "{e:?}"
+    );
+    assert_eq!(ekf, before);
+    assert_eq!(
+        ekf.update(Pose2::IDENTITY, &Matrix3::zeros(), &cfg),
+        Err(UpdateRejection::NothingObserved)
+    );
+    assert_eq!(
+        ekf.update(Pose2::new(f32::INFINITY, 0.0, 0.0), &info, &cfg),
+        Err(UpdateRejection::NonFinite)
+    );
+}
+
+#[test]
+fn covariance_stays_bounded_without_updates() {
+    let mut ekf = Ekf::new(Pose2::IDENTITY, diag(1.0, 1.0, 1.0)).unwrap();
+    let noise = OdometryNoise::default();
+    for _ in 0..100_000 {
+        let _ = ekf.predict(
+            &OdometryIncrement {
+                dx_m: 5.0,
+                dy_m: 0.0,
+                dtheta_rad: 1.0,
+            },
+            &noise,
+        );
+    }
+    let c = ekf.covariance();
+    assert!(c.iter().all(|v| v.is_finite()));
+    assert!(c.diagonal().max() <= MAX_VARIANCE * 1.0001);
+    assert!(ekf.pose().is_finite());
+}

@@ -1,0 +1,213 @@
+//! EKF update from a scan match, projected onto the directions the scan observes, with
+//! chi-square gating and the Joseph-form covariance update.
+//!
+//! With `V` the observed eigenvectors of the scaled information (`S·I·S`, `S = diag(1, 1,
+//! 1/L)`) and `λ` their eigenvalues, the scan measures `y = Vᵀ·S⁻¹·x` with noise
+//! `diag(1/λ + floor²)`. `Hᵀ·R⁻¹·H` is then exactly the observed part of the information, so
+//! an unobserved direction gets no information and, with an uncorrelated prior, no
+//! correction. Unobserved rows of `H` are kept as zero rows (fixed 3×3 algebra; their
+//! gain columns vanish).
+
+use core::fmt;
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::Ekf;
+use crate::geometry::Pose2;
+use crate::matching::{observable_subspace, MatchConfig, MatchResult};
+use crate::math;
+
+/// The gate's false-rejection probability.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GateProbability {
+    /// Reject when a consistent match would be rejected 1 % of the time.
+    P99,
+    /// Reject when a consistent match would be rejected 0.1 % of the time (default).
+    #[default]
+    P999,
+    /// Never reject (testing only: a wrong match then corrupts the estimate).
+    Disabled,
+}
+
+impl GateProbability {
+    /// The chi-square threshold for `dof` degrees of freedom (1–3).
+    pub fn threshold(self, dof: usize) -> f32 {
+        const P99: [f32; 3] = [6.635, 9.210, 11.345];
+        const P999: [f32; 3] = [10.828, 13.816, 16.266];
+        let table = match self {
+            GateProbability::P99 => &P99,
+            GateProbability::P999 => &P999,
+            GateProbability::Disabled => return f32::INFINITY,
+        };
+        dof.checked_sub(1)
+            .and_then(|i| table.get(i))
+            .copied()
+            .unwrap_or(f32::INFINITY)
+    }
+}
+
+/// Tuning of the match update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateConfig {
+    /// A direction is observed when its (scaled) information is at least this, m⁻². Use the
+    /// matcher's [`MatchConfig::min_information_per_m2`].
+    pub min_information_per_m2: f32,
+    /// `L`, metres: the same as the matcher's `rotation_scale_m`.
+    pub rotation_scale_m: f32,
+    /// Chi-square gate.
+    pub gate: GateProbability,
+    /// Standard deviation added to each observed direction of the match, metres (scaled
+    /// units: a heading error counts at `L`). The point-to-line covariance ignores map and
+    /// model errors and would otherwise make the filter overconfident.
+    pub min_measurement_sd_m: f32,
+}
+
+impl UpdateConfig {
+    /// The update that goes with a matcher configuration.
+    pub fn for_matcher(config: &MatchConfig) -> Self {
+        Self {
+            min_information_per_m2: config.min_information_per_m2(),
+            rotation_scale_m: config.rotation_scale_m,
+            gate: GateProbability::P999,
+            min_measurement_sd_m: 0.005,
+        }
+    }
+}
+
+impl Default for UpdateConfig {
+    fn default() -> Self {
+        Self::for_matcher(&MatchConfig::default())
+    }
+}
+
+/// What an accepted update did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateReport {
+    /// Directions of state space updated (0–3; 2 in a smooth tunnel).
+    pub observed_directions: u8,
+    /// Squared Mahalanobis distance of the projected innovation.
+    pub mahalanobis_sq: f32,
+    /// The correction applied, `(dx_m, dy_m, dtheta_rad)`, world frame.
+    pub correction: [f32; 3],
+}
+
+/// Why a match did not update the filter (the state is left unchanged).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum UpdateRejection {
+    /// The match observes no direction: its information is below the threshold everywhere.
+    NothingObserved,
+    /// The match disagrees with the prediction beyond the chi-square gate: a wrong match (or
+    /// an overconfident prediction); the estimate continues on odometry.
+    FailedGate {
+        /// Squared Mahalanobis distance.
+        mahalanobis_sq: f32,
+        /// The gate it exceeded.
+        threshold: f32,
+        /// Degrees of freedom (observed directions).
+        dof: u8,
+    },
+    /// The match pose or information is NaN or infinite, or the innovation covariance is
+    /// singular.
+    NonFinite,
+}
+
+impl fmt::Display for UpdateRejection {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            UpdateRejection::NothingObserved => {
+                write!(f, "the match observes no direction of the pose")
+            }
+            UpdateRejection::FailedGate {
+                mahalanobis_sq,
+                threshold,
+                dof,
+            } => write!(
+                f,
+                "match rejected by the gate: Mahalanobis² {mahalanobis_sq} > {threshold} ({dof} dof)"
+            ),
+            UpdateRejection::NonFinite => write!(f, "non-finite match or singular innovation"),
+        }
+    }
+}
+
+impl Ekf {
+    /// Updates with a match result (its pose and information).
+    pub fn update_with_match(
+        &mut self,
+        result: &MatchResult,
+        config: &UpdateConfig,
+    ) -> Result<UpdateReport, UpdateRejection> {
+        self.update(result.pose, &result.information, config)
+    }
+
+    /// Updates with a measured vehicle pose (world frame) and its information matrix
+    /// (`(x_m, y_m, theta_rad)`, m⁻², m⁻¹rad⁻¹, rad⁻²; may be singular).
+    pub fn update(
+        &mut self,
+        measured: Pose2,
+        information: &Matrix3<f32>,
+        config: &UpdateConfig,
+    ) -> Result<UpdateReport, UpdateRejection> {
+        if !measured.is_finite() || !information.iter().all(|v| v.is_finite()) {
+            return Err(UpdateRejection::NonFinite);
+        }
+        let obs = observable_subspace(
+            information,
+            config.min_information_per_m2,
+            config.rotation_scale_m,
+        );
+        if obs.rank == 0 {
+            return Err(UpdateRejection::NothingObserved);
+        }
+        let h = obs.scaled_basis.transpose() * obs.unscale();
+        let floor_sq = config.min_measurement_sd_m * config.min_measurement_sd_m;
+        let mut r_diag = Vector3::repeat(1.0f32);
+        for (k, (r, lambda)) in r_diag.iter_mut().zip(obs.eigenvalues.iter()).enumerate() {
+            if k < obs.rank {
+                *r = 1.0 / lambda + floor_sq;
+            }
+        }
+        let r = Matrix3::from_diagonal(&r_diag);
+        let error = Vector3::new(
+            measured.x_m - self.pose.x_m,
+            measured.y_m - self.pose.y_m,
+            math::wrap_angle(measured.theta_rad - self.pose.theta_rad),
+        );
+        let nu = h * error;
+        let p = self.covariance;
+        let s = h * p * h.transpose() + r;
+        let s_inv = s.try_inverse().ok_or(UpdateRejection::NonFinite)?;
+        let d2 = (nu.transpose() * s_inv * nu).x;
+        if !d2.is_finite() {
+            return Err(UpdateRejection::NonFinite);
+        }
+        let threshold = config.gate.threshold(obs.rank);
+        let dof = u8::try_from(obs.rank).unwrap_or(3);
+        if d2 > threshold {
+            return Err(UpdateRejection::FailedGate {
+                mahalanobis_sq: d2,
+                threshold,
+                dof,
+            });
+        }
+        let k = p * h.transpose() * s_inv;
+        let dx = k * nu;
+        let i_kh = Matrix3::identity() - k * h;
+        let p_new = i_kh * p * i_kh.transpose() + k * r * k.transpose();
+        if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
+            return Err(UpdateRejection::NonFinite);
+        }
+        self.pose = Pose2::new(
+            self.pose.x_m + dx.x,
+            self.pose.y_m + dx.y,
+            self.pose.theta_rad + dx.z,
+        );
+        self.covariance = p_new;
+        self.condition();
+        Ok(UpdateReport {
+            observed_directions: dof,
+            mahalanobis_sq: d2,
+            correction: [dx.x, dx.y, dx.z],
+        })
+    }
+}
