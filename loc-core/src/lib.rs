@@ -42,3 +42,4 @@ pub mod math;
 pub mod rng;
 pub mod scan;
 pub mod strip;
+pub mod testkit;

@@ -160,13 +160,28 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
                 capacity: SEGMENTS,
             });
         }
-        for (side, vertices) in [(WallSide::Left, left), (WallSide::Right, right)] {
-            let mut cursor = WallCursor::new(side);
-            for &p in vertices {
-                self.push_wall_vertex(&mut cursor, p)?;
-            }
-            self.end_wall(&cursor)?;
+        self.builder_from_iters(left.iter().copied(), right.iter().copied())
+    }
+
+    /// [`StoredMap::builder`] with the wall vertices generated on the fly (no buffer for
+    /// the polylines). On a capacity error `needed` counts the segments up to the first
+    /// one that did not fit.
+    pub fn builder_from_iters(
+        &mut self,
+        left: impl IntoIterator<Item = Point2>,
+        right: impl IntoIterator<Item = Point2>,
+    ) -> Result<MapBuilder<'_, SEGMENTS, LANDMARKS, CELLS, CELL_REFS>, MapError> {
+        self.clear();
+        let mut cursor = WallCursor::new(WallSide::Left);
+        for p in left {
+            self.push_wall_vertex(&mut cursor, p)?;
         }
+        self.end_wall(&cursor)?;
+        let mut cursor = WallCursor::new(WallSide::Right);
+        for p in right {
+            self.push_wall_vertex(&mut cursor, p)?;
+        }
+        self.end_wall(&cursor)?;
         Ok(MapBuilder { map: self })
     }
 
