@@ -42,4 +42,6 @@ pub mod math;
 pub mod rng;
 pub mod scan;
 pub mod strip;
+// Test kit (synthetic tunnels, scan simulator): feature `testkit`, always on for own tests.
+#[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
