@@ -1,1 +1,312 @@
-//! Recording readers (in progress).
+//! Recorded telegrams (feature `std`): raw byte streams, pcap and pcapng (Ethernet/IPv4/TCP,
+//! reassembled per direction) and SICK's `.pcapng.json`. The format is detected from content.
+//!
+//! [`Recording::frames`] frames every direction separately and classifies frames whose direction
+//! the file does not say (raw streams, JSON records) by command type: `sRN sWN sMN sEN` are host
+//! requests, everything else a sensor answer.
+
+mod pcap;
+mod pcapng;
+mod sick_json;
+mod tcp;
+
+use std::fmt;
+use std::path::Path;
+
+pub use tcp::{TcpStats, SICK_PORTS};
+
+use crate::frame::{Dialect, Frame, FrameError};
+use crate::framer::{Framer, FramerStats};
+use crate::telegram::Telegram;
+
+/// Which way bytes went.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Direction {
+    /// Host → sensor (requests).
+    HostToSensor,
+    /// Sensor → host (answers, scans).
+    SensorToHost,
+    /// Not recorded (raw streams, SICK JSON): classified per frame by command type.
+    Unknown,
+}
+
+/// Recording file formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum RecordingFormat {
+    /// Bytes as they came off the wire, one direction or mixed.
+    Raw,
+    /// libpcap.
+    Pcap,
+    /// pcapng.
+    Pcapng,
+    /// SICK's `.pcapng.json`.
+    SickJson,
+}
+
+impl RecordingFormat {
+    /// Detects the format from the first bytes.
+    pub fn detect(bytes: &[u8]) -> Self {
+        if pcapng::is_pcapng(bytes) {
+            RecordingFormat::Pcapng
+        } else if pcap::is_pcap(bytes) {
+            RecordingFormat::Pcap
+        } else if sick_json::is_json(bytes) {
+            RecordingFormat::SickJson
+        } else {
+            RecordingFormat::Raw
+        }
+    }
+}
+
+/// A piece of a recorded stream.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chunk {
+    /// Direction, if the file says.
+    pub direction: Direction,
+    /// Capture time, s (pcap: epoch; JSON: relative to the capture start).
+    pub time_s: Option<f64>,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+}
+
+/// Why a recording could not be read.
+#[derive(Debug)]
+pub enum RecordingError {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// pcap / pcapng structure broken at this offset.
+    Capture {
+        /// Byte offset in the file.
+        offset: usize,
+        /// What is wrong.
+        what: &'static str,
+    },
+    /// Not valid SICK JSON.
+    Json(String),
+}
+
+impl fmt::Display for RecordingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RecordingError::Io(e) => write!(f, "cannot read recording: {e}"),
+            RecordingError::Capture { offset, what } => {
+                write!(f, "capture file broken at byte {offset}: {what} (file truncated or not a capture)")
+            }
+            RecordingError::Json(e) => write!(f, "not a SICK .pcapng.json recording: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for RecordingError {}
+
+/// A recording: ordered chunks of bytes with direction and time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// Detected file format.
+    pub format: RecordingFormat,
+    /// The chunks in capture order.
+    pub chunks: Vec<Chunk>,
+    /// TCP reassembly counters (pcap / pcapng only).
+    pub tcp: Option<TcpStats>,
+}
+
+/// One frame of a recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedFrame {
+    /// Direction (recorded, or classified by command type).
+    pub direction: Direction,
+    /// Time of the chunk that completed the frame, s.
+    pub time_s: Option<f64>,
+    /// Dialect.
+    pub dialect: Dialect,
+    /// The whole frame.
+    pub bytes: Vec<u8>,
+}
+
+impl RecordedFrame {
+    /// The checked frame view.
+    pub fn frame(&self) -> Frame<'_> {
+        Frame::from_checked(self.dialect, &self.bytes)
+    }
+}
+
+/// All frames of a recording, with the framers' counters.
+#[derive(Debug, Clone, Default)]
+pub struct RecordedFrames {
+    /// Good frames in capture order.
+    pub frames: Vec<RecordedFrame>,
+    /// Dropped frames, in order.
+    pub errors: Vec<(Direction, FrameError)>,
+    /// Counters summed over the directions.
+    pub stats: FramerStats,
+}
+
+/// One captured link-layer packet of a pcap / pcapng file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CapturedPacket {
+    /// Capture time, s since the epoch (`None` for pcapng simple packet blocks).
+    pub time_s: Option<f64>,
+    /// Link type (1 = Ethernet).
+    pub linktype: u32,
+    /// Packet bytes from the link layer on.
+    pub data: Vec<u8>,
+}
+
+/// The packets of a pcap or pcapng file, in file order (no TCP processing).
+pub fn capture_packets(bytes: &[u8]) -> Result<Vec<CapturedPacket>, RecordingError> {
+    let mut out = Vec::new();
+    let mut each = |p: &tcp::Packet<'_>| {
+        out.push(CapturedPacket {
+            time_s: p.time_s,
+            linktype: p.linktype,
+            data: p.data.to_vec(),
+        })
+    };
+    match RecordingFormat::detect(bytes) {
+        RecordingFormat::Pcap => pcap::packets(bytes, &mut each)?,
+        RecordingFormat::Pcapng => pcapng::packets(bytes, &mut each)?,
+        _ => {
+            return Err(RecordingError::Capture {
+                offset: 0,
+                what: "not a pcap or pcapng file",
+            })
+        }
+    }
+    Ok(out)
+}
+
+/// Writes packets as a classic pcap file (µs timestamps, little-endian), e.g. to record a
+/// simulated or emulated session for Wireshark. All packets must share the first one's link
+/// type.
+pub fn write_pcap(packets: &[CapturedPacket]) -> Vec<u8> {
+    let linktype = packets.first().map_or(1, |p| p.linktype);
+    let mut v = Vec::new();
+    v.extend_from_slice(&0xa1b2_c3d4u32.to_le_bytes());
+    v.extend_from_slice(&2u16.to_le_bytes());
+    v.extend_from_slice(&4u16.to_le_bytes());
+    v.extend_from_slice(&0i32.to_le_bytes());
+    v.extend_from_slice(&0u32.to_le_bytes());
+    v.extend_from_slice(&262_144u32.to_le_bytes());
+    v.extend_from_slice(&linktype.to_le_bytes());
+    for p in packets {
+        let t = p.time_s.unwrap_or(0.0).max(0.0);
+        let sec = t.floor();
+        let usec = ((t - sec) * 1e6).round().min(999_999.0);
+        let len = p.data.len() as u32;
+        v.extend_from_slice(&(sec as u32).to_le_bytes());
+        v.extend_from_slice(&(usec as u32).to_le_bytes());
+        v.extend_from_slice(&len.to_le_bytes());
+        v.extend_from_slice(&len.to_le_bytes());
+        v.extend_from_slice(&p.data);
+    }
+    v
+}
+
+/// Framer buffer per direction: room for the largest telegrams of both dialects.
+const FRAMER_BUFFER_LEN: usize = 256 * 1024;
+
+impl Recording {
+    /// Reads and parses a recording file of any supported format.
+    pub fn read_file(path: impl AsRef<Path>) -> Result<Self, RecordingError> {
+        let bytes = std::fs::read(path).map_err(RecordingError::Io)?;
+        Self::parse(&bytes)
+    }
+
+    /// Parses recording bytes of any supported format.
+    pub fn parse(bytes: &[u8]) -> Result<Self, RecordingError> {
+        let format = RecordingFormat::detect(bytes);
+        let (chunks, tcp) = match format {
+            RecordingFormat::Raw => (
+                vec![Chunk {
+                    direction: Direction::Unknown,
+                    time_s: None,
+                    bytes: bytes.to_vec(),
+                }],
+                None,
+            ),
+            RecordingFormat::SickJson => (sick_json::chunks(bytes)?, None),
+            RecordingFormat::Pcap | RecordingFormat::Pcapng => {
+                let mut r = tcp::Reassembler::default();
+                if format == RecordingFormat::Pcap {
+                    pcap::packets(bytes, |p| r.push(p))?;
+                } else {
+                    pcapng::packets(bytes, |p| r.push(p))?;
+                }
+                let (c, s) = r.finish();
+                (c, Some(s))
+            }
+        };
+        Ok(Recording {
+            format,
+            chunks,
+            tcp,
+        })
+    }
+
+    /// Frames every direction separately; frames of unknown direction are classified by type.
+    pub fn frames(&self) -> RecordedFrames {
+        let dirs = [
+            Direction::HostToSensor,
+            Direction::SensorToHost,
+            Direction::Unknown,
+        ];
+        let mut framers: Vec<Framer<Vec<u8>>> = dirs
+            .iter()
+            .map(|_| Framer::new(vec![0u8; FRAMER_BUFFER_LEN]))
+            .collect();
+        let mut out = RecordedFrames::default();
+        let idx = |d: Direction| dirs.iter().position(|&x| x == d).unwrap_or(2);
+        for chunk in &self.chunks {
+            let Some(framer) = framers.get_mut(idx(chunk.direction)) else {
+                continue;
+            };
+            framer.feed(&chunk.bytes, |r| {
+                collect(&mut out, chunk.direction, chunk.time_s, r)
+            });
+        }
+        for (d, framer) in dirs.iter().zip(framers.iter_mut()) {
+            framer.finish();
+            while let Some(r) = framer.next_frame() {
+                collect(&mut out, *d, None, r);
+            }
+            let s = framer.stats();
+            let t = &mut out.stats;
+            t.bytes_in += s.bytes_in;
+            t.garbage_bytes += s.garbage_bytes;
+            t.frames_cola_a += s.frames_cola_a;
+            t.frames_cola_b += s.frames_cola_b;
+            t.bad_checksum += s.bad_checksum;
+            t.bad_length += s.bad_length;
+            t.oversize += s.oversize;
+            t.truncated += s.truncated;
+        }
+        out
+    }
+}
+
+fn collect(
+    out: &mut RecordedFrames,
+    dir: Direction,
+    time_s: Option<f64>,
+    r: Result<Frame<'_>, FrameError>,
+) {
+    match r {
+        Ok(f) => {
+            let direction = match dir {
+                Direction::Unknown => match Telegram::parse(f) {
+                    Ok(t) if t.kind().is_request() => Direction::HostToSensor,
+                    Ok(_) => Direction::SensorToHost,
+                    Err(_) => Direction::Unknown,
+                },
+                d => d,
+            };
+            out.frames.push(RecordedFrame {
+                direction,
+                time_s,
+                dialect: f.dialect(),
+                bytes: f.as_bytes().to_vec(),
+            });
+        }
+        Err(e) => out.errors.push((dir, e)),
+    }
+}
