@@ -36,12 +36,11 @@
 pub mod filter;
 pub mod geometry;
 pub mod landmark;
+pub mod localizer;
 pub mod map;
 pub mod matching;
 pub mod math;
 pub mod rng;
 pub mod scan;
 pub mod strip;
-// Test kit (synthetic tunnels, scan simulator): feature `testkit`, always on for own tests.
-#[cfg(any(test, feature = "testkit"))]
 pub mod testkit;

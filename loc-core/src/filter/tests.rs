@@ -1,5 +1,5 @@
 use super::*;
-use crate::geometry::Pose2;
+use crate::geometry::{Point2, Pose2};
 
 fn diag(a: f32, b: f32, c: f32) -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(a, b, c))
@@ -63,7 +63,12 @@ fn update_leaves_unobserved_direction_to_odometry() {
     // A smooth-tunnel match: observes y and θ only, says (10.0, 0.0, 0.0).
     let info = diag(0.0, 1e6, 1e7);
     let report = ekf
-        .update(Pose2::new(10.0, 0.0, 0.0), &info, &UpdateConfig::default())
+        .update(
+            Pose2::new(10.0, 0.0, 0.0),
+            &info,
+            None,
+            &UpdateConfig::default(),
+        )
         .unwrap();
     assert_eq!(report.observed_directions, 2);
     let p = ekf.pose();
@@ -80,13 +85,13 @@ fn full_update_and_gate() {
     let mut ekf = Ekf::new(Pose2::new(0.05, 0.0, 0.0), diag(0.01, 0.01, 1e-3)).unwrap();
     let info = diag(1e6, 1e6, 1e7);
     let cfg = UpdateConfig::default();
-    let r = ekf.update(Pose2::IDENTITY, &info, &cfg).unwrap();
+    let r = ekf.update(Pose2::IDENTITY, &info, None, &cfg).unwrap();
     assert_eq!(r.observed_directions, 3);
     assert!(ekf.pose().x_m.abs() < 2e-3);
     // A match 2 m away with a tight prior fails the gate and changes nothing.
     let before = ekf;
     let e = ekf
-        .update(Pose2::new(2.0, 0.0, 0.0), &info, &cfg)
+        .update(Pose2::new(2.0, 0.0, 0.0), &info, None, &cfg)
         .unwrap_err();
     assert!(
         matches!(e, UpdateRejection::FailedGate { dof: 3, .. }),
@@ -94,11 +99,11 @@ fn full_update_and_gate() {
     );
     assert_eq!(ekf, before);
     assert_eq!(
-        ekf.update(Pose2::IDENTITY, &Matrix3::zeros(), &cfg),
+        ekf.update(Pose2::IDENTITY, &Matrix3::zeros(), None, &cfg),
         Err(UpdateRejection::NothingObserved)
     );
     assert_eq!(
-        ekf.update(Pose2::new(f32::INFINITY, 0.0, 0.0), &info, &cfg),
+        ekf.update(Pose2::new(f32::INFINITY, 0.0, 0.0), &info, None, &cfg),
         Err(UpdateRejection::NonFinite)
     );
 }
@@ -121,4 +126,33 @@ fn covariance_stays_bounded_without_updates() {
     assert!(c.iter().all(|v| v.is_finite()));
     assert!(c.diagonal().max() <= MAX_VARIANCE * 1.0001);
     assert!(ekf.pose().is_finite());
+}
+
+#[test]
+fn projected_gain_holds_along_position_despite_correlation() {
+    // A prior correlated between along (x) and heading, as after driving a bend.
+    let p0 = Matrix3::new(0.25, 0.0, 0.01, 0.0, 0.01, 0.0, 0.01, 0.0, 0.003);
+    let mut ekf = Ekf::new(Pose2::new(10.5, 0.1, 0.05), p0).unwrap();
+    let info = diag(0.0, 1e6, 1e7);
+    let mut free = ekf;
+    free.update(
+        Pose2::new(10.0, 0.0, 0.0),
+        &info,
+        None,
+        &UpdateConfig::default(),
+    )
+    .unwrap();
+    // Unprojected, the correlation drags x.
+    assert!((free.pose().x_m - 10.5).abs() > 0.05, "{:?}", free.pose());
+    ekf.update(
+        Pose2::new(10.0, 0.0, 0.0),
+        &info,
+        Some(Point2::new(1.0, 0.0)),
+        &UpdateConfig::default(),
+    )
+    .unwrap();
+    assert!((ekf.pose().x_m - 10.5).abs() < 1e-5, "{:?}", ekf.pose());
+    assert!((ekf.covariance()[(0, 0)] - 0.25).abs() < 1e-5);
+    assert!(ekf.pose().y_m.abs() < 0.01);
+    assert!(ekf.covariance().cholesky().is_some());
 }

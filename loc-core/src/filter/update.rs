@@ -13,7 +13,7 @@ use core::fmt;
 use nalgebra::{Matrix3, Vector3};
 
 use super::Ekf;
-use crate::geometry::Pose2;
+use crate::geometry::{Point2, Pose2};
 use crate::matching::{observable_subspace, MatchConfig, MatchResult};
 use crate::math;
 
@@ -137,15 +137,26 @@ impl Ekf {
         result: &MatchResult,
         config: &UpdateConfig,
     ) -> Result<UpdateReport, UpdateRejection> {
-        self.update(result.pose, &result.information, config)
+        let d = &result.degeneracy;
+        let hold = d.degenerate.then_some(d.direction_world);
+        self.update(result.pose, &result.information, hold, config)
     }
 
     /// Updates with a measured vehicle pose (world frame) and its information matrix
     /// (`(x_m, y_m, theta_rad)`, m⁻², m⁻¹rad⁻¹, rad⁻²; may be singular).
+    ///
+    /// `unobserved_direction` (unit, world frame), when given, is a direction of travel the
+    /// scan does not observe (the tunnel axis with no landmark in view): the gain is
+    /// projected so the update never moves the position along it (`K ← T·K`, `T` removing
+    /// that translation component; the Joseph form keeps the covariance exact for this
+    /// gain). Position and variance along it then follow odometry alone, even in a curve,
+    /// where the scan ties the along-tunnel position to the heading and an unprojected update
+    /// would trade one for the other.
     pub fn update(
         &mut self,
         measured: Pose2,
         information: &Matrix3<f32>,
+        unobserved_direction: Option<Point2>,
         config: &UpdateConfig,
     ) -> Result<UpdateReport, UpdateRejection> {
         if !measured.is_finite() || !information.iter().all(|v| v.is_finite()) {
@@ -190,7 +201,11 @@ impl Ekf {
                 dof,
             });
         }
-        let k = p * h.transpose() * s_inv;
+        let mut k = p * h.transpose() * s_inv;
+        if let Some(d) = unobserved_direction.filter(|d| d.is_finite() && d.norm_sq() > 0.5) {
+            let e = Vector3::new(d.x_m, d.y_m, 0.0) / d.norm();
+            k = (Matrix3::identity() - e * e.transpose()) * k;
+        }
         let dx = k * nu;
         let i_kh = Matrix3::identity() - k * h;
         let p_new = i_kh * p * i_kh.transpose() + k * r * k.transpose();

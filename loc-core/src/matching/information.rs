@@ -184,14 +184,38 @@ pub fn truncated_step(
         }
         _ => {
             if let Some(inv) = hs.try_inverse() {
-                // Full rank: solve directly in the eigenbasis' span (= everything).
+                // Full rank: every direction is observed, nothing to hold.
                 let full = -(inv * gs);
                 return s * full / (1.0 + damping.max(0.0));
             }
         }
     }
-    let step_scaled = b_scaled * y;
-    s * step_scaled / (1.0 + damping.max(0.0))
+    let step = s * (b_scaled * y) / (1.0 + damping.max(0.0));
+    hold_along_unobserved(step, &eq.information_points, min_information_points)
+}
+
+/// Gauge fix: a step may be changed by any multiple of the unobserved state direction
+/// `u = (d, δθ)` without changing the fit (to first order); choose the multiple that leaves
+/// the translation along `d` untouched. In a straight tunnel this changes nothing; in a curved
+/// one it stops a heading correction from leaking into the along-tunnel position (the
+/// minimum-norm step would turn part of it into motion around the bend).
+fn hold_along_unobserved(
+    step: Vector3<f32>,
+    information_points: &Matrix3<f32>,
+    min_information_points: f32,
+) -> Vector3<f32> {
+    let deg = degeneracy(information_points, min_information_points);
+    if !deg.degenerate {
+        return step;
+    }
+    let [ux, uy, uth] = deg.state_direction;
+    let along = step.x * ux + step.y * uy;
+    let fixed = step - Vector3::new(ux, uy, uth) * along;
+    if fixed.iter().all(|v| v.is_finite()) {
+        fixed
+    } else {
+        step
+    }
 }
 
 /// How well a scan pins the vehicle's position: the translation information with the heading
