@@ -33,6 +33,7 @@
     )
 )]
 
+pub mod crc;
 pub mod filter;
 pub mod geometry;
 pub mod landmark;

@@ -11,6 +11,10 @@
 //! Frames: the tunnel's centre line starts at the world origin heading +x; a curved tunnel
 //! turns left (counter-clockwise) with the given centre-line radius.
 
+// Compiled only for this crate's tests and with the `testkit` feature (kept here rather than
+// in lib.rs so the module list there stays a plain list).
+#![cfg(any(test, feature = "testkit"))]
+
 use crate::geometry::{Point2, Pose2};
 use crate::landmark::{Genome, LandmarkModel, LandmarkShape};
 use crate::map::{LandmarkPlacement, MapError, MapQuery, StoredMap, WallSide};
@@ -76,6 +80,7 @@ impl TunnelSpec {
     }
 
     /// A tunnel turning left on a 50 m centre-line radius, 5 m wide, walls every 1 m.
+    /// Beyond 2π · 50 m ≈ 314 m it would run over itself: keep `length_m` below that.
     pub fn curved(length_m: f32) -> Self {
         Self {
             radius_m: Some(Self::DEFAULT_RADIUS_M),

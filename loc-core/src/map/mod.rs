@@ -6,8 +6,11 @@
 //!   sparse-grid index ([`MapBuilder`] builds one).
 //! - [`WallSide`]: left/right wall and positions along a wall by arc length.
 //! - [`MapError`]: what goes wrong building, loading or saving a map.
+//! - `file`: the versioned, checksummed postcard file format
+//!   ([`StoredMap::to_slice`], [`StoredMap::from_bytes`]).
 
 mod error;
+mod file;
 mod grid;
 mod query;
 mod search;
@@ -15,6 +18,7 @@ mod stored;
 mod wall;
 
 pub use error::{Capacity, GeometryError, MapError};
+pub use file::{MAP_FORMAT_VERSION, MAP_HEADER_LEN, MAP_MAGIC};
 pub use query::{FeatureKind, MapHit, MapQuery, RayHit};
 pub use stored::{
     HostMap, IndexStats, LandmarkPlacement, MapBuilder, MapLandmark, MapSegment, StoredMap,
