@@ -111,7 +111,10 @@ impl WorldSummary {
             tunnel_length_m: world.centerline().length_m(),
             width_m: world.width_m(),
             landmarks_designed: p.len(),
-            landmarks_missing: p.iter().filter(|l| l.condition == Condition::Missing).count(),
+            landmarks_missing: p
+                .iter()
+                .filter(|l| l.condition == Condition::Missing)
+                .count(),
             landmarks_damaged: p
                 .iter()
                 .filter(|l| matches!(l.condition, Condition::Damaged(_)))
@@ -164,7 +167,10 @@ impl RunLog {
 
     /// Number of scans whose status label is `status`.
     pub fn status_count(&self, status: &str) -> usize {
-        self.statuses.iter().filter(|s| s.as_str() == status).count()
+        self.statuses
+            .iter()
+            .filter(|s| s.as_str() == status)
+            .count()
     }
 }
 
@@ -178,14 +184,24 @@ pub struct RunOptions<'a> {
 }
 
 /// Drives the scenario's route through `world`, feeding `estimator`.
-pub fn run(scenario: &Scenario, world: &World, estimator: &mut dyn Estimator, options: &RunOptions<'_>) -> RunLog {
+pub fn run(
+    scenario: &Scenario,
+    world: &World,
+    estimator: &mut dyn Estimator,
+    options: &RunOptions<'_>,
+) -> RunLog {
     let wall = Instant::now();
     let line = world.centerline();
     let mut follower = PathFollower::new(scenario.drive, line.length_m());
     let start = follower.start_pose(line);
     let seed = scenario.seed;
     let mut vehicle = SkidSteer::new(scenario.vehicle, start, seed ^ 0x7e41);
-    let mut odometry = Odometry::new(scenario.odometry, scenario.vehicle.track_width_m, start, seed ^ 0x0d0);
+    let mut odometry = Odometry::new(
+        scenario.odometry,
+        scenario.vehicle.track_width_m,
+        start,
+        seed ^ 0x0d0,
+    );
     let mut lidar = Lms511::new(scenario.lidar, seed ^ 0x11d);
     let mut init_rng = Pcg32::new(seed, 0x1417);
     let c = &scenario.localizer;
@@ -194,13 +210,20 @@ pub fn run(scenario: &Scenario, world: &World, estimator: &mut dyn Estimator, op
         y_m: start.y_m + c.initial_sigma_m * f64::from(init_rng.gaussian()),
         theta_rad: start.theta_rad + c.initial_sigma_rad * f64::from(init_rng.gaussian()),
     };
-    estimator.reset(initial, c.initial_sigma_m.max(0.01), c.initial_sigma_rad.max(0.002));
+    estimator.reset(
+        initial,
+        c.initial_sigma_m.max(0.01),
+        c.initial_sigma_rad.max(0.002),
+    );
 
-    let steps_per_odometry = ((1.0 / scenario.odometry.rate_hz) / VEHICLE_DT_S).round().max(1.0) as u64;
+    let steps_per_odometry = ((1.0 / scenario.odometry.rate_hz) / VEHICLE_DT_S)
+        .round()
+        .max(1.0) as u64;
     let scan_period_s = 1.0 / scenario.lidar.rate.frequency_hz();
     let drive_len = follower.length_m().max(1e-9);
     // Generous time limit: the drive at a tenth of its cruise speed.
-    let max_steps = ((10.0 * drive_len / scenario.drive.cruise_speed_mps + 60.0) / VEHICLE_DT_S) as u64;
+    let max_steps =
+        ((10.0 * drive_len / scenario.drive.cruise_speed_mps + 60.0) / VEHICLE_DT_S) as u64;
 
     let mut samples = Vec::new();
     let mut statuses = Vec::new();
@@ -222,7 +245,11 @@ pub fn run(scenario: &Scenario, world: &World, estimator: &mut dyn Estimator, op
             finished_at.get_or_insert(step);
             TrackSpeeds::default()
         } else {
-            vehicle.commands_for(cmd.v_mps, cmd.omega_radps, scenario.odometry.calibrated_icr_expansion)
+            vehicle.commands_for(
+                cmd.v_mps,
+                cmd.omega_radps,
+                scenario.odometry.calibrated_icr_expansion,
+            )
         };
         vehicle.step(tracks, VEHICLE_DT_S);
         let after = vehicle.pose();
@@ -330,8 +357,18 @@ mod tests {
     fn runs_are_deterministic_for_a_seed() {
         let s = named("paper-10m").unwrap();
         let world = s.build_world().unwrap();
-        let a = run(&s, &world, &mut OdometryOnly::default(), &RunOptions::default());
-        let b = run(&s, &world, &mut OdometryOnly::default(), &RunOptions::default());
+        let a = run(
+            &s,
+            &world,
+            &mut OdometryOnly::default(),
+            &RunOptions::default(),
+        );
+        let b = run(
+            &s,
+            &world,
+            &mut OdometryOnly::default(),
+            &RunOptions::default(),
+        );
         assert_eq!(a.samples.len(), b.samples.len());
         for (x, y) in a.samples.iter().zip(&b.samples) {
             assert_eq!((x.truth, x.estimate), (y.truth, y.estimate));

@@ -102,10 +102,9 @@ impl LandmarkChoice {
                 loc_core::landmark::Gene::Width => ("W".to_string(), b.width_m),
                 loc_core::landmark::Gene::Height => ("H".to_string(), b.height_m),
                 loc_core::landmark::Gene::Spacing => ("D".to_string(), b.spacing_m),
-                loc_core::landmark::Gene::NodeHeight(i) => (
-                    format!("h{}", i + 1),
-                    b.heights.unwrap_or(b.height_m),
-                ),
+                loc_core::landmark::Gene::NodeHeight(i) => {
+                    (format!("h{}", i + 1), b.heights.unwrap_or(b.height_m))
+                }
             };
             LandmarkChoiceError::OutOfBounds {
                 gene: name,
@@ -187,7 +186,10 @@ mod tests {
         assert_eq!(custom.genes().len(), 3);
         let f4 = LandmarkChoice::parse("f4", None).unwrap();
         assert_eq!(f4.genes().len(), 9);
-        assert_eq!(LandmarkChoice::parse("none", None).unwrap().profile(), vec![]);
+        assert_eq!(
+            LandmarkChoice::parse("none", None).unwrap().profile(),
+            vec![]
+        );
         assert!(matches!(
             LandmarkChoice::parse("p9", None),
             Err(LandmarkChoiceError::UnknownModel(_))

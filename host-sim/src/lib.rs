@@ -17,10 +17,13 @@
 pub mod closed_loop;
 pub mod landmarks;
 pub mod lidar;
+pub mod map_export;
 pub mod metrics;
 pub mod output;
 pub mod raycast;
+pub mod report;
 pub mod scenario;
+pub mod session;
 pub mod stored_map;
 pub mod vehicle;
 pub mod world;

@@ -248,8 +248,8 @@ mod tests {
         let errs: Vec<f64> = (0..1141)
             .filter_map(|i| {
                 // Vehicle-frame angle: sensor angle plus the −90° mounting yaw.
-                let a = scan.start_angle_rad + i as f64 * scan.step_rad
-                    - std::f64::consts::FRAC_PI_2;
+                let a =
+                    scan.start_angle_rad + i as f64 * scan.step_rad - std::f64::consts::FRAC_PI_2;
                 let truth = 2.0 / a.sin().abs();
                 let r = f64::from(scan.ranges_mm[i]) / 1000.0;
                 (a.sin().abs() > 0.5 && r > 0.0).then_some(r - truth)

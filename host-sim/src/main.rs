@@ -1,2 +1,366 @@
-//! host-sim command line (being built).
-fn main() {}
+//! `host-sim`: the engineer's command line.
+//!
+//! - `host-sim demo`: a short drive with and without landmarks, side by side.
+//! - `host-sim run [FILE] [--scenario NAME] [flags]`: one closed-loop run, a report or
+//!   `--json`, and files in `--out DIR`.
+//! - `host-sim export-map`: the stored map the localiser gets (postcard bytes or JSON).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use host_sim::closed_loop::{RunLog, RunOptions};
+use host_sim::lidar::ScanRate;
+use host_sim::map_export;
+use host_sim::output::{self, MetricsJson};
+use host_sim::report::{self, Column};
+use host_sim::scenario::named::{named, NAMES};
+use host_sim::scenario::overrides::Overrides;
+use host_sim::scenario::{MatcherChoice, Scenario};
+use host_sim::session::{run_scenario, EstimatorChoice};
+use host_sim::stored_map;
+
+#[derive(Parser)]
+#[command(
+    name = "host-sim",
+    version,
+    about = "Tunnel, loader and LMS511 simulator running loc-core's localiser in closed loop"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// A short drive through a curved, rough tunnel with and without landmarks, side by side.
+    Demo {
+        /// Seed of every random draw.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+    /// One closed-loop run: report (or --json) and files in --out.
+    Run(RunArgs),
+    /// Writes the stored map of a scenario: postcard bytes (firmware) or JSON (people).
+    ExportMap(ExportArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MatcherArg {
+    Hausdorff,
+    Icp,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum EstimatorArg {
+    /// loc-core's localiser.
+    Localizer,
+    /// Odometry alone (baseline).
+    Odometry,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum RateArg {
+    #[value(name = "25")]
+    Hz25,
+    #[value(name = "35")]
+    Hz35,
+    #[value(name = "50")]
+    Hz50,
+    #[value(name = "75")]
+    Hz75,
+    #[value(name = "100")]
+    Hz100,
+}
+
+#[derive(Args)]
+struct ScenarioArgs {
+    /// Scenario file (TOML); see host-sim's README for the keys.
+    file: Option<PathBuf>,
+    /// Named scenario: paper-10m, tunnel-1km, demo-200m.
+    #[arg(long, conflicts_with = "file")]
+    scenario: Option<String>,
+    /// Landmark model: none, p1, p2, p3, p4, f1, f2, f3, f4 (default genes: the paper's optimum).
+    #[arg(long)]
+    landmarks: Option<String>,
+    /// Landmark genes W,H,D[,h1..h6] in metres (h as multiples of H).
+    #[arg(long, allow_hyphen_values = true)]
+    genes: Option<String>,
+    /// Scan matcher.
+    #[arg(long, value_enum)]
+    matcher: Option<MatcherArg>,
+    /// Seed of every random draw.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Every N-th landmark of each wall is missing in the true tunnel.
+    #[arg(long)]
+    missing_every: Option<u32>,
+    /// Fraction of landmarks missing at random (0–1).
+    #[arg(long)]
+    missing_fraction: Option<f64>,
+    /// Fraction of present landmarks damaged (0–1; kind from the scenario, default bent 15°).
+    #[arg(long)]
+    damage_fraction: Option<f64>,
+    /// Drive only this many metres from the start.
+    #[arg(long)]
+    length: Option<f64>,
+    /// Cruise speed, m/s.
+    #[arg(long)]
+    speed: Option<f64>,
+    /// LMS511 scan rate in Hz (25, 35, 50, 75, 100; resolution follows).
+    #[arg(long, value_enum)]
+    rate: Option<RateArg>,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Estimator under test.
+    #[arg(long, value_enum, default_value = "localizer")]
+    estimator: EstimatorArg,
+    /// Directory for trajectories.csv, metrics.json and scenario.toml.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the metrics as one JSON object instead of the report.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MapFormat {
+    Postcard,
+    Json,
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "postcard")]
+    format: MapFormat,
+    /// Output file (default: stdout for JSON, map.postcard for postcard).
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
+    let mut s = match (&a.file, &a.scenario) {
+        (Some(f), _) => Scenario::from_file(f).map_err(|e| e.to_string())?,
+        (None, Some(n)) => named(n).map_err(|e| e.to_string())?,
+        (None, None) => {
+            return Err(format!(
+                "give a scenario file or --scenario NAME ({})",
+                NAMES.join(", ")
+            ))
+        }
+    };
+    let o = Overrides {
+        landmarks: a.landmarks.clone(),
+        genes: a.genes.clone(),
+        matcher: a.matcher.map(|m| match m {
+            MatcherArg::Hausdorff => MatcherChoice::Hausdorff,
+            MatcherArg::Icp => MatcherChoice::Icp,
+        }),
+        seed: a.seed,
+        missing_every: a.missing_every,
+        missing_fraction: a.missing_fraction,
+        damage_fraction: a.damage_fraction,
+        drive_length_m: a.length,
+        speed_mps: a.speed,
+        rate: a.rate.map(|r| match r {
+            RateArg::Hz25 => ScanRate::Hz25,
+            RateArg::Hz35 => ScanRate::Hz35,
+            RateArg::Hz50 => ScanRate::Hz50,
+            RateArg::Hz75 => ScanRate::Hz75,
+            RateArg::Hz100 => ScanRate::Hz100,
+        }),
+        range_noise_m: None,
+    };
+    o.apply(&mut s).map_err(|e| e.to_string())?;
+    Ok(s)
+}
+
+/// A progress bar on stderr, shown only when the run lasts more than a moment.
+fn progress_bar(label: &str, enabled: bool) -> Option<ProgressBar> {
+    if !enabled {
+        return None;
+    }
+    let bar = ProgressBar::new(1000);
+    bar.set_style(
+        ProgressStyle::with_template("{msg:>14} [{bar:40}] {percent:>3}% {elapsed}/{eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_message(label.to_string());
+    // Hidden for the first seconds: short runs never show a bar.
+    bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    Some(bar)
+}
+
+fn run_with_progress(
+    s: &Scenario,
+    est: EstimatorChoice,
+    label: &str,
+    show: bool,
+) -> Result<RunLog, String> {
+    let bar = progress_bar(label, show);
+    let started = std::time::Instant::now();
+    let shown = std::cell::Cell::new(false);
+    let cb = |f: f64| {
+        if let Some(b) = &bar {
+            if !shown.get() && started.elapsed() > Duration::from_secs(2) {
+                b.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                shown.set(true);
+            }
+            b.set_position((f * 1000.0) as u64);
+        }
+    };
+    let options = RunOptions {
+        keep_scans: false,
+        progress: Some(&cb),
+    };
+    let log = run_scenario(s, est, &options).map_err(|e| e.to_string());
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    log
+}
+
+fn cmd_run(a: &RunArgs) -> Result<(), String> {
+    let s = load_scenario(&a.scenario)?;
+    let est = match a.estimator {
+        EstimatorArg::Localizer => EstimatorChoice::Localizer,
+        EstimatorArg::Odometry => EstimatorChoice::OdometryOnly,
+    };
+    let log = run_with_progress(&s, est, &s.name, !a.quiet)?;
+    let m = log.metrics();
+    if a.json {
+        println!("{}", MetricsJson::new(&log, &m).to_json());
+    } else {
+        println!("{}", report::run_report(&log, &m));
+    }
+    if let Some(dir) = &a.out {
+        let files = output::write_run(dir, "", &log, &m).map_err(|e| e.to_string())?;
+        if !a.json {
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn cmd_demo(seed: u64) -> Result<(), String> {
+    let started = std::time::Instant::now();
+    let mut base = named("demo-200m").map_err(|e| e.to_string())?;
+    base.seed = seed;
+    let mut bare = base.clone();
+    bare.landmarks.model = "none".into();
+    bare.landmarks.genes = None;
+    let mut missing = base.clone();
+    missing.landmarks.missing_every = Some(5);
+    let with = run_with_progress(&base, EstimatorChoice::Localizer, "P1 landmarks", true)?;
+    let holes = run_with_progress(&missing, EstimatorChoice::Localizer, "1 in 5 missing", true)?;
+    let without = run_with_progress(&bare, EstimatorChoice::Localizer, "no landmarks", true)?;
+    let (mw, mh, mo) = (with.metrics(), holes.metrics(), without.metrics());
+    println!("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n");
+    println!("{}\n", report::scenario_line(&with));
+    let cols = [
+        Column {
+            heading: "P1 landmarks".into(),
+            log: &with,
+            metrics: &mw,
+            odometry: false,
+        },
+        Column {
+            heading: "1 in 5 missing".into(),
+            log: &holes,
+            metrics: &mh,
+            odometry: false,
+        },
+        Column {
+            heading: "no landmarks".into(),
+            log: &without,
+            metrics: &mo,
+            odometry: false,
+        },
+        Column {
+            heading: "odometry alone".into(),
+            log: &with,
+            metrics: &mw,
+            odometry: true,
+        },
+    ];
+    println!("{}", report::comparison_table(&cols));
+    println!(
+        "Without landmarks the walls still fix the lateral position and heading, but nothing fixes\n\
+         the position along the tunnel: it drifts with odometry. With landmarks every {:.1} m (±0.625 m)\n\
+         the error stays at the lidar's noise level for the whole drive.",
+        base.landmark_choice().map(|c| c.spacing_m()).unwrap_or(0.0)
+    );
+    println!("\n(demo took {:.1} s)", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn cmd_export(a: &ExportArgs) -> Result<(), String> {
+    let s = load_scenario(&a.scenario)?;
+    let world = s.build_world().map_err(|e| e.to_string())?;
+    let choice = s.landmark_choice().map_err(|e| e.to_string())?;
+    let map = stored_map::build(&world, &choice).map_err(|e| e.to_string())?;
+    match a.format {
+        MapFormat::Json => {
+            let text = map_export::to_json(&map).to_pretty();
+            match &a.out {
+                Some(p) => write_file(p, text.as_bytes())?,
+                None => println!("{text}"),
+            }
+        }
+        MapFormat::Postcard => {
+            let bytes: Vec<u8> = Err(
+                "postcard export waits for loc-core's map serialisation; use --format json"
+                    .to_string(),
+            )?;
+            let p = a
+                .out
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("map.postcard"));
+            write_file(&p, &bytes)?;
+            eprintln!(
+                "wrote {} ({} bytes: {} segments, {} landmarks)",
+                p.display(),
+                bytes.len(),
+                map.segments().len(),
+                map.landmarks().len()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn write_file(p: &Path, bytes: &[u8]) -> Result<(), String> {
+    std::fs::write(p, bytes).map_err(|e| format!("cannot write {}: {e}", p.display()))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Demo { seed } => cmd_demo(*seed),
+        Command::Run(a) => cmd_run(a),
+        Command::ExportMap(a) => cmd_export(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("host-sim: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

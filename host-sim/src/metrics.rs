@@ -136,7 +136,10 @@ fn accuracy(line: &CenterLine, samples: &[Sample], pick: impl Fn(&Sample) -> Sim
     let th2 = |s: &Sample| wrap_pi(pick(s).theta_rad - s.truth.theta_rad).powi(2);
     let n = samples.len() as f64;
     let mse = samples.iter().map(|s| pos2(s) + th2(s)).sum::<f64>() / n;
-    let splits: Vec<(f64, f64)> = samples.iter().map(|s| split_error(line, s, pick(s))).collect();
+    let splits: Vec<(f64, f64)> = samples
+        .iter()
+        .map(|s| split_error(line, s, pick(s)))
+        .collect();
     Accuracy {
         mse_eq2: mse,
         rms_eq2: mse.sqrt(),

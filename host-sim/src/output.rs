@@ -196,7 +196,10 @@ pub fn write_trajectories_csv(log: &RunLog, w: &mut dyn Write) -> std::io::Resul
     Ok(())
 }
 
-fn write_file(path: &Path, f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), OutputError> {
+fn write_file(
+    path: &Path,
+    f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), OutputError> {
     let err = |source| OutputError {
         path: path.to_path_buf(),
         source,
@@ -209,7 +212,12 @@ fn write_file(path: &Path, f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>
 
 /// Writes `trajectories.csv`, `metrics.json` and `scenario.toml` into `dir` (created if
 /// needed); `prefix` is prepended to each name (e.g. `"p1-"`). Returns the paths written.
-pub fn write_run(dir: &Path, prefix: &str, log: &RunLog, m: &Metrics) -> Result<Vec<PathBuf>, OutputError> {
+pub fn write_run(
+    dir: &Path,
+    prefix: &str,
+    log: &RunLog,
+    m: &Metrics,
+) -> Result<Vec<PathBuf>, OutputError> {
     std::fs::create_dir_all(dir).map_err(|source| OutputError {
         path: dir.to_path_buf(),
         source,
@@ -236,7 +244,12 @@ mod tests {
     fn writes_csv_json_and_a_scenario_that_reruns() {
         let s = named("paper-10m").unwrap();
         let world = s.build_world().unwrap();
-        let log = run(&s, &world, &mut OdometryOnly::default(), &RunOptions::default());
+        let log = run(
+            &s,
+            &world,
+            &mut OdometryOnly::default(),
+            &RunOptions::default(),
+        );
         let m = log.metrics();
         let dir = tempfile::tempdir().unwrap();
         let files = write_run(dir.path(), "", &log, &m).unwrap();

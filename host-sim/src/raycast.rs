@@ -61,9 +61,15 @@ impl SegmentGrid {
     pub fn new(segments: Vec<WorldSegment>, cell_m: f64) -> Self {
         let segments: Vec<WorldSegment> = segments
             .into_iter()
-            .filter(|s| s.a.0.is_finite() && s.a.1.is_finite() && s.b.0.is_finite() && s.b.1.is_finite())
+            .filter(|s| {
+                s.a.0.is_finite() && s.a.1.is_finite() && s.b.0.is_finite() && s.b.1.is_finite()
+            })
             .collect();
-        let cell_m = if cell_m.is_finite() && cell_m > 0.0 { cell_m } else { 1.0 };
+        let cell_m = if cell_m.is_finite() && cell_m > 0.0 {
+            cell_m
+        } else {
+            1.0
+        };
         let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
         for s in &segments {
             for p in [s.a, s.b] {
@@ -162,15 +168,23 @@ impl SegmentGrid {
         } else {
             next_boundary(iy, step_y, origin.1, self.origin.1) / dy
         };
-        let t_delta_x = if dx.abs() < 1e-15 { f64::INFINITY } else { self.cell_m / dx.abs() };
-        let t_delta_y = if dy.abs() < 1e-15 { f64::INFINITY } else { self.cell_m / dy.abs() };
+        let t_delta_x = if dx.abs() < 1e-15 {
+            f64::INFINITY
+        } else {
+            self.cell_m / dx.abs()
+        };
+        let t_delta_y = if dy.abs() < 1e-15 {
+            f64::INFINITY
+        } else {
+            self.cell_m / dy.abs()
+        };
         let mut t_enter = 0.0f64;
         loop {
             let t_exit = t_max_x.min(t_max_y);
             if ix >= 0 && iy >= 0 && (ix as usize) < self.nx && (iy as usize) < self.ny {
                 let c = iy as usize * self.nx + ix as usize;
-                let items = &self.cell_items
-                    [self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+                let items =
+                    &self.cell_items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
                 let mut best: Option<Hit> = None;
                 for &k in items {
                     let s = &self.segments[k as usize];
@@ -302,8 +316,12 @@ mod tests {
         assert_eq!(h.surface, Surface::RightWall);
         assert!(grid.cast((0.0, 0.0), 0.0, 9.0).is_none());
         assert!(grid.cast((0.0, 0.0), std::f64::consts::PI, 80.0).is_none());
-        assert!(grid.cast((0.0, 0.0), std::f64::consts::FRAC_PI_2, 80.0).is_none());
+        assert!(grid
+            .cast((0.0, 0.0), std::f64::consts::FRAC_PI_2, 80.0)
+            .is_none());
         assert!(grid.cast((f64::NAN, 0.0), 0.0, 80.0).is_none());
-        assert!(SegmentGrid::new(Vec::new(), 1.0).cast((0.0, 0.0), 0.3, 80.0).is_none());
+        assert!(SegmentGrid::new(Vec::new(), 1.0)
+            .cast((0.0, 0.0), 0.3, 80.0)
+            .is_none());
     }
 }

@@ -22,7 +22,9 @@ pub const WALL_TOLERANCE_M: f64 = 0.002;
 pub const MAP_CELL_M: f32 = 2.0;
 
 fn to_points(pts: &[(f64, f64)]) -> Vec<Point2> {
-    pts.iter().map(|&(x, y)| Point2::new(x as f32, y as f32)).collect()
+    pts.iter()
+        .map(|&(x, y)| Point2::new(x as f32, y as f32))
+        .collect()
 }
 
 /// Arc length along `poly` of the point of `poly` closest to `p`, metres.
@@ -46,8 +48,11 @@ fn arc_length_of(poly: &[(f64, f64)], p: (f64, f64)) -> f64 {
     best.1
 }
 
+/// A world-frame polyline, `(x, y)` metres.
+pub type Polyline = Vec<(f64, f64)>;
+
 /// The design walls as the stored map holds them: `(left, right)` world polylines.
-pub fn design_walls(world: &World) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
+pub fn design_walls(world: &World) -> (Polyline, Polyline) {
     (
         world.wall_polyline(WallSide::Left, false, WALL_TOLERANCE_M),
         world.wall_polyline(WallSide::Right, false, WALL_TOLERANCE_M),
@@ -81,10 +86,19 @@ pub fn design_placements(world: &World, choice: &LandmarkChoice) -> Vec<Landmark
 }
 
 /// Builds the stored map of `world`'s design into `map` (reused in place: it is large).
-pub fn build_into(map: &mut TunnelMap, world: &World, choice: &LandmarkChoice) -> Result<(), MapError> {
+pub fn build_into(
+    map: &mut TunnelMap,
+    world: &World,
+    choice: &LandmarkChoice,
+) -> Result<(), MapError> {
     let (left, right) = design_walls(world);
     let placements = design_placements(world, choice);
-    map.rebuild(&to_points(&left), &to_points(&right), &placements, MAP_CELL_M)
+    map.rebuild(
+        &to_points(&left),
+        &to_points(&right),
+        &placements,
+        MAP_CELL_M,
+    )
 }
 
 /// Builds the stored map of `world`'s design on the heap.
@@ -111,7 +125,8 @@ mod tests {
         for (i, lm) in map.landmarks().iter().enumerate() {
             let designed = world.landmark_polyline(i, false);
             let first = map.segments()[usize::from(lm.first_segment)].segment.a;
-            let d = (f64::from(first.x_m) - designed[0].0).hypot(f64::from(first.y_m) - designed[0].1);
+            let d =
+                (f64::from(first.x_m) - designed[0].0).hypot(f64::from(first.y_m) - designed[0].1);
             assert!(d < 0.01, "landmark {i}: {d} m apart");
         }
         // A ray across the tunnel from the centre line meets a wall at half the width.

@@ -19,6 +19,7 @@
 //! ```
 
 pub mod named;
+pub mod overrides;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -351,7 +352,11 @@ impl Scenario {
     /// Checks every value's range; the error names the key.
     pub fn validate(&self) -> Result<(), ScenarioError> {
         let t = &self.tunnel;
-        check(t.width_m.is_finite() && t.width_m > 0.5, "tunnel.width_m", "must be a width above 0.5 m")?;
+        check(
+            t.width_m.is_finite() && t.width_m > 0.5,
+            "tunnel.width_m",
+            "must be a width above 0.5 m",
+        )?;
         check(
             t.roughness_sigma_m.is_finite() && (0.0..=0.2).contains(&t.roughness_sigma_m),
             "tunnel.roughness_sigma_m",
@@ -368,55 +373,151 @@ impl Scenario {
             "give either `pieces` or `csv` for the centre line (exactly one)",
         )?;
         for p in &t.pieces {
-            check(p.length_m.is_finite() && p.length_m > 0.0, "tunnel.pieces.length_m", "must be > 0 m")?;
+            check(
+                p.length_m.is_finite() && p.length_m > 0.0,
+                "tunnel.pieces.length_m",
+                "must be > 0 m",
+            )?;
             if let Some(r) = p.radius_m {
-                check(r.is_finite() && r.abs() >= 5.0, "tunnel.pieces.radius_m", "must be at least 5 m in magnitude")?;
+                check(
+                    r.is_finite() && r.abs() >= 5.0,
+                    "tunnel.pieces.radius_m",
+                    "must be at least 5 m in magnitude",
+                )?;
             }
         }
         let l = &self.landmarks;
         LandmarkChoice::parse(&l.model, l.genes.as_deref())?;
-        check(l.first_m.is_finite(), "landmarks.first_m", "must be a finite chainage")?;
+        check(
+            l.first_m.is_finite(),
+            "landmarks.first_m",
+            "must be a finite chainage",
+        )?;
         if let Some(n) = l.missing_every {
-            check(n >= 2, "landmarks.missing_every", "must be ≥ 2 (2 = every second missing)")?;
+            check(
+                n >= 2,
+                "landmarks.missing_every",
+                "must be ≥ 2 (2 = every second missing)",
+            )?;
         }
         if let Some(f) = l.missing_fraction {
-            check((0.0..=1.0).contains(&f), "landmarks.missing_fraction", "must lie in [0, 1]")?;
+            check(
+                (0.0..=1.0).contains(&f),
+                "landmarks.missing_fraction",
+                "must lie in [0, 1]",
+            )?;
         }
         check(
             l.missing_every.is_none() || l.missing_fraction.is_none(),
             "landmarks.missing_every",
             "give missing_every or missing_fraction, not both",
         )?;
-        check((0.0..=1.0).contains(&l.damage_fraction), "landmarks.damage_fraction", "must lie in [0, 1]")?;
-        check((0.0..=1.0).contains(&l.keep_fraction), "landmarks.keep_fraction", "must lie in [0, 1]")?;
-        check(l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0, "landmarks.bend_deg", "must lie in [-90, 90]")?;
+        check(
+            (0.0..=1.0).contains(&l.damage_fraction),
+            "landmarks.damage_fraction",
+            "must lie in [0, 1]",
+        )?;
+        check(
+            (0.0..=1.0).contains(&l.keep_fraction),
+            "landmarks.keep_fraction",
+            "must lie in [0, 1]",
+        )?;
+        check(
+            l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0,
+            "landmarks.bend_deg",
+            "must lie in [-90, 90]",
+        )?;
         let d = &self.lidar;
         check(
             d.range_noise_m.is_finite() && (0.0..=0.5).contains(&d.range_noise_m),
             "lidar.range_noise_m",
             "must lie in [0, 0.5] m",
         )?;
-        check(d.systematic_error_m.is_finite() && d.systematic_error_m.abs() <= 0.5, "lidar.systematic_error_m", "must lie in [-0.5, 0.5] m")?;
-        check(d.max_range_m > 0.0 && d.max_range_m <= 80.0, "lidar.max_range_m", "must lie in (0, 80] m")?;
+        check(
+            d.systematic_error_m.is_finite() && d.systematic_error_m.abs() <= 0.5,
+            "lidar.systematic_error_m",
+            "must lie in [-0.5, 0.5] m",
+        )?;
+        check(
+            d.max_range_m > 0.0 && d.max_range_m <= 80.0,
+            "lidar.max_range_m",
+            "must lie in (0, 80] m",
+        )?;
         let v = &self.vehicle;
-        check(v.track_width_m > 0.1 && v.track_width_m.is_finite(), "vehicle.track_width_m", "must be > 0.1 m")?;
-        check(v.icr_expansion >= 1.0 && v.icr_expansion < 5.0, "vehicle.icr_expansion", "must lie in [1, 5)")?;
-        check((0.0..0.5).contains(&v.slip_mean), "vehicle.slip_mean", "must lie in [0, 0.5)")?;
-        check(v.slip_std >= 0.0 && v.slip_std < 0.2, "vehicle.slip_std", "must lie in [0, 0.2)")?;
+        check(
+            v.track_width_m > 0.1 && v.track_width_m.is_finite(),
+            "vehicle.track_width_m",
+            "must be > 0.1 m",
+        )?;
+        check(
+            v.icr_expansion >= 1.0 && v.icr_expansion < 5.0,
+            "vehicle.icr_expansion",
+            "must lie in [1, 5)",
+        )?;
+        check(
+            (0.0..0.5).contains(&v.slip_mean),
+            "vehicle.slip_mean",
+            "must lie in [0, 0.5)",
+        )?;
+        check(
+            v.slip_std >= 0.0 && v.slip_std < 0.2,
+            "vehicle.slip_std",
+            "must lie in [0, 0.2)",
+        )?;
         let o = &self.odometry;
-        check(o.rate_hz >= 1.0 && o.rate_hz <= 1000.0, "odometry.rate_hz", "must lie in [1, 1000] Hz")?;
-        check(o.scale_error.abs() < 0.5, "odometry.scale_error", "must lie in (-0.5, 0.5)")?;
-        check(o.calibrated_icr_expansion >= 0.5 && o.calibrated_icr_expansion < 5.0, "odometry.calibrated_icr_expansion", "must lie in [0.5, 5)")?;
-        check(o.speed_noise_mps >= 0.0 && o.speed_noise_mps < 1.0, "odometry.speed_noise_mps", "must lie in [0, 1) m/s")?;
+        check(
+            o.rate_hz >= 1.0 && o.rate_hz <= 1000.0,
+            "odometry.rate_hz",
+            "must lie in [1, 1000] Hz",
+        )?;
+        check(
+            o.scale_error.abs() < 0.5,
+            "odometry.scale_error",
+            "must lie in (-0.5, 0.5)",
+        )?;
+        check(
+            o.calibrated_icr_expansion >= 0.5 && o.calibrated_icr_expansion < 5.0,
+            "odometry.calibrated_icr_expansion",
+            "must lie in [0.5, 5)",
+        )?;
+        check(
+            o.speed_noise_mps >= 0.0 && o.speed_noise_mps < 1.0,
+            "odometry.speed_noise_mps",
+            "must lie in [0, 1) m/s",
+        )?;
         let r = &self.drive;
-        check(r.cruise_speed_mps > 0.0 && r.cruise_speed_mps <= 15.0, "drive.cruise_speed_mps", "must lie in (0, 15] m/s")?;
+        check(
+            r.cruise_speed_mps > 0.0 && r.cruise_speed_mps <= 15.0,
+            "drive.cruise_speed_mps",
+            "must lie in (0, 15] m/s",
+        )?;
         check(r.accel_mps2 > 0.0, "drive.accel_mps2", "must be > 0")?;
-        check(r.lateral_accel_mps2 > 0.0, "drive.lateral_accel_mps2", "must be > 0")?;
-        check(r.lateral_offset_m.abs() < t.width_m / 2.0, "drive.lateral_offset_m", "must keep the path inside the tunnel")?;
-        check(r.start_m >= 0.0 && r.start_m < r.end_m, "drive.start_m", "must be ≥ 0 and before drive.end_m")?;
+        check(
+            r.lateral_accel_mps2 > 0.0,
+            "drive.lateral_accel_mps2",
+            "must be > 0",
+        )?;
+        check(
+            r.lateral_offset_m.abs() < t.width_m / 2.0,
+            "drive.lateral_offset_m",
+            "must keep the path inside the tunnel",
+        )?;
+        check(
+            r.start_m >= 0.0 && r.start_m < r.end_m,
+            "drive.start_m",
+            "must be ≥ 0 and before drive.end_m",
+        )?;
         let c = &self.localizer;
-        check(c.initial_sigma_m >= 0.0 && c.initial_sigma_m < 5.0, "localizer.initial_sigma_m", "must lie in [0, 5) m")?;
-        check(c.initial_sigma_rad >= 0.0 && c.initial_sigma_rad < 1.0, "localizer.initial_sigma_rad", "must lie in [0, 1) rad")?;
+        check(
+            c.initial_sigma_m >= 0.0 && c.initial_sigma_m < 5.0,
+            "localizer.initial_sigma_m",
+            "must lie in [0, 5) m",
+        )?;
+        check(
+            c.initial_sigma_rad >= 0.0 && c.initial_sigma_rad < 1.0,
+            "localizer.initial_sigma_rad",
+            "must lie in [0, 1) rad",
+        )?;
         Ok(())
     }
 
@@ -570,7 +671,11 @@ cruise_speed_mps = 2.0
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("line.csv"), "x,y\n0,0\n30,0\n60,5\n").unwrap();
         let file = dir.path().join("s.toml");
-        std::fs::write(&file, "[tunnel]\ncsv = \"line.csv\"\n[landmarks]\nmodel = \"none\"\n").unwrap();
+        std::fs::write(
+            &file,
+            "[tunnel]\ncsv = \"line.csv\"\n[landmarks]\nmodel = \"none\"\n",
+        )
+        .unwrap();
         let s = Scenario::from_file(&file).unwrap();
         let w = s.build_world().unwrap();
         assert!(w.centerline().length_m() > 60.0);

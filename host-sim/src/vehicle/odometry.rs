@@ -100,7 +100,11 @@ impl Odometry {
             dt_s,
             v_mps: v,
             omega_radps: omega,
-            delta: (c * dxw + s * dyw, -s * dxw + c * dyw, after.theta_rad - before.theta_rad),
+            delta: (
+                c * dxw + s * dyw,
+                -s * dxw + c * dyw,
+                after.theta_rad - before.theta_rad,
+            ),
         }
     }
 }

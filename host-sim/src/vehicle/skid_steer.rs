@@ -107,7 +107,12 @@ impl SkidSteer {
 
     /// Wheel-speed commands that give forward speed `v_mps` and yaw rate `omega_radps`
     /// for a vehicle whose ICR expansion is believed to be `assumed_expansion`.
-    pub fn commands_for(&self, v_mps: f64, omega_radps: f64, assumed_expansion: f64) -> TrackSpeeds {
+    pub fn commands_for(
+        &self,
+        v_mps: f64,
+        omega_radps: f64,
+        assumed_expansion: f64,
+    ) -> TrackSpeeds {
         let half = assumed_expansion * self.spec.track_width_m / 2.0;
         TrackSpeeds {
             left_mps: v_mps - omega_radps * half,
@@ -133,8 +138,12 @@ impl SkidSteer {
             0.0
         };
         let innov = s.slip_std * (1.0 - rho * rho).sqrt();
-        self.slip_left = s.slip_mean + rho * (self.slip_left - s.slip_mean) + innov * f64::from(self.rng.gaussian());
-        self.slip_right = s.slip_mean + rho * (self.slip_right - s.slip_mean) + innov * f64::from(self.rng.gaussian());
+        self.slip_left = s.slip_mean
+            + rho * (self.slip_left - s.slip_mean)
+            + innov * f64::from(self.rng.gaussian());
+        self.slip_right = s.slip_mean
+            + rho * (self.slip_right - s.slip_mean)
+            + innov * f64::from(self.rng.gaussian());
         let vl = self.wheels.left_mps * (1.0 - self.slip_left);
         let vr = self.wheels.right_mps * (1.0 - self.slip_right);
         let (vx, vy, omega) = icr_velocities(s, vl, vr);
@@ -168,7 +177,10 @@ mod tests {
         let (vx2, vy2, w2) = icr_velocities(&skid, 1.0, 2.0);
         assert!((vx2 - 1.5).abs() < 1e-12);
         assert!((w2 - w / 1.3).abs() < 1e-12);
-        assert!(vy2 < 0.0, "ICR ahead of the reference point: the rear swings out");
+        assert!(
+            vy2 < 0.0,
+            "ICR ahead of the reference point: the rear swings out"
+        );
     }
 
     #[test]

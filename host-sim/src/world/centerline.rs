@@ -237,11 +237,7 @@ impl CenterLine {
         let t = (s_m - a.s_m) / len;
         if (0.0..=1.0).contains(&t) {
             let h = a.heading_rad + t * (b.heading_rad - a.heading_rad);
-            (
-                a.x_m + t * (b.x_m - a.x_m),
-                a.y_m + t * (b.y_m - a.y_m),
-                h,
-            )
+            (a.x_m + t * (b.x_m - a.x_m), a.y_m + t * (b.y_m - a.y_m), h)
         } else {
             // Straight extension beyond an end.
             let end = if t < 0.0 { a } else { b };

@@ -238,8 +238,16 @@ mod tests {
                 assert!((9.0 - 0.625..=9.0 + 0.625).contains(&d), "{d}");
             }
         }
-        let left: Vec<f64> = p.iter().filter(|l| l.wall == WallSide::Left).map(|l| l.s_m).collect();
-        let right: Vec<f64> = p.iter().filter(|l| l.wall == WallSide::Right).map(|l| l.s_m).collect();
+        let left: Vec<f64> = p
+            .iter()
+            .filter(|l| l.wall == WallSide::Left)
+            .map(|l| l.s_m)
+            .collect();
+        let right: Vec<f64> = p
+            .iter()
+            .filter(|l| l.wall == WallSide::Right)
+            .map(|l| l.s_m)
+            .collect();
         assert_ne!(left[1], right[1], "walls draw independent spacings");
     }
 
@@ -256,11 +264,20 @@ mod tests {
     #[test]
     fn damage_shapes() {
         let tri = [(0.0, 0.0), (0.2, 0.1), (0.4, 0.0)];
-        let half = damaged_profile(&tri, DamageKind::PartlyMissing { keep_fraction: 0.25 });
+        let half = damaged_profile(
+            &tri,
+            DamageKind::PartlyMissing {
+                keep_fraction: 0.25,
+            },
+        );
         assert_eq!(half, vec![(0.0, 0.0), (0.1, 0.05), (0.1, 0.0)]);
         let bent = damaged_profile(&tri, DamageKind::Bent { angle_rad: 0.1 });
         assert_eq!(bent[0], (0.0, 0.0));
-        assert!(bent[2].1 > 0.03, "far end lifted off the wall: {:?}", bent[2]);
+        assert!(
+            bent[2].1 > 0.03,
+            "far end lifted off the wall: {:?}",
+            bent[2]
+        );
         assert!(damaged_profile(&[], DamageKind::Bent { angle_rad: 0.1 }).is_empty());
     }
 }

@@ -299,11 +299,17 @@ mod tests {
         assert_eq!(l.len(), 2);
         assert!((l[0].1 - 2.5).abs() < 1e-12 && (l[1].0 - 100.0).abs() < 1e-9);
         // Straight up from chainage 7.5 (between landmarks at 5 and ~14): the left wall.
-        let hit = w.grid().cast((7.5, 0.0), std::f64::consts::FRAC_PI_2, 80.0).unwrap();
+        let hit = w
+            .grid()
+            .cast((7.5, 0.0), std::f64::consts::FRAC_PI_2, 80.0)
+            .unwrap();
         assert!((hit.range_m - 2.5).abs() < 1e-9);
         assert_eq!(hit.surface, Surface::LeftWall);
         // Straight down at chainage 5: the right wall's first landmark tip at 2.5 − 0.15.
-        let hit = w.grid().cast((5.0, 0.0), -std::f64::consts::FRAC_PI_2, 80.0).unwrap();
+        let hit = w
+            .grid()
+            .cast((5.0, 0.0), -std::f64::consts::FRAC_PI_2, 80.0)
+            .unwrap();
         assert!((hit.range_m - 2.35).abs() < 1e-9, "{hit:?}");
     }
 
@@ -334,7 +340,8 @@ mod tests {
     fn rough_walls_deviate_by_about_sigma() {
         let w = world(0.01, 0.0, Omission::None);
         let rough = w.wall_polyline(WallSide::Left, true, 0.0);
-        let rms = (rough.iter().map(|p| (p.1 - 2.5).powi(2)).sum::<f64>() / rough.len() as f64).sqrt();
+        let rms =
+            (rough.iter().map(|p| (p.1 - 2.5).powi(2)).sum::<f64>() / rough.len() as f64).sqrt();
         assert!(rms > 0.004 && rms < 0.02, "{rms}");
     }
 }

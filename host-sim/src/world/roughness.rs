@@ -73,7 +73,12 @@ mod tests {
         let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
         assert!((var.sqrt() - 0.01).abs() < 0.001, "sigma {}", var.sqrt());
         // Lag-one correlation of an AR(1) with step 0.1 m and length 0.5 m: exp(-0.2).
-        let lag1 = x.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum::<f64>() / n / var;
+        let lag1 = x
+            .windows(2)
+            .map(|w| (w[0] - mean) * (w[1] - mean))
+            .sum::<f64>()
+            / n
+            / var;
         assert!((lag1 - (-0.2f64).exp()).abs() < 0.03, "lag1 {lag1}");
     }
 

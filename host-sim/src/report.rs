@@ -1,0 +1,237 @@
+//! Text reports for people: one run's figures, and runs side by side in a table (the
+//! demo). Lengths print in millimetres below a metre and in metres above.
+
+use std::fmt::Write;
+
+use crate::closed_loop::RunLog;
+use crate::metrics::{Accuracy, Metrics};
+
+/// A length for people: `12.3 mm` or `4.56 m`.
+pub fn length(m: f64) -> String {
+    if !m.is_finite() {
+        "-".into()
+    } else if m.abs() < 1.0 {
+        format!("{:.1} mm", m * 1000.0)
+    } else {
+        format!("{m:.2} m")
+    }
+}
+
+/// An angle for people, in milliradians.
+pub fn angle(rad: f64) -> String {
+    format!("{:.2} mrad", rad * 1000.0)
+}
+
+/// One column of a comparison: a heading and a run with its figures. `odometry = true`
+/// reports the run's odometry-alone figures instead of the estimator's.
+pub struct Column<'a> {
+    /// Column heading.
+    pub heading: String,
+    /// The run.
+    pub log: &'a RunLog,
+    /// Its figures.
+    pub metrics: &'a Metrics,
+    /// Report odometry alone.
+    pub odometry: bool,
+}
+
+fn accuracy<'a>(c: &'a Column<'_>) -> &'a Accuracy {
+    if c.odometry {
+        &c.metrics.odometry
+    } else {
+        &c.metrics.localizer
+    }
+}
+
+/// A table with one row per figure and one column per run.
+pub fn comparison_table(columns: &[Column<'_>]) -> String {
+    type Row<'r> = (&'r str, Box<dyn Fn(&Column<'_>) -> String + 'r>);
+    let rows: Vec<Row<'_>> = vec![
+        (
+            "position RMS",
+            Box::new(|c| length(accuracy(c).position_rms_m)),
+        ),
+        (
+            "  along the tunnel",
+            Box::new(|c| length(accuracy(c).along_rms_m)),
+        ),
+        (
+            "  across the tunnel",
+            Box::new(|c| length(accuracy(c).across_rms_m)),
+        ),
+        (
+            "heading RMS",
+            Box::new(|c| angle(accuracy(c).heading_rms_rad)),
+        ),
+        (
+            "eq. 2 RMS (x, y, θ)",
+            Box::new(|c| format!("{:.4}", accuracy(c).rms_eq2)),
+        ),
+        (
+            "max position error",
+            Box::new(|c| length(accuracy(c).max_position_error_m)),
+        ),
+        (
+            "first 100 m position RMS",
+            Box::new(|c| length(accuracy(c).first_100m_position_rms_m)),
+        ),
+        (
+            "last 100 m position RMS",
+            Box::new(|c| length(accuracy(c).last_100m_position_rms_m)),
+        ),
+        (
+            "position error at the end",
+            Box::new(|c| length(accuracy(c).final_position_error_m)),
+        ),
+        ("scans", Box::new(|c| c.metrics.scans.to_string())),
+        (
+            "localiser time per scan",
+            Box::new(|c| {
+                if c.odometry {
+                    "-".into()
+                } else {
+                    format!("{:.0} µs", c.metrics.mean_us_per_scan)
+                }
+            }),
+        ),
+        (
+            "faster than real time",
+            Box::new(|c| {
+                if c.odometry {
+                    "-".into()
+                } else {
+                    format!("{:.0}×", c.log.real_time_factor())
+                }
+            }),
+        ),
+    ];
+    let label_w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0) + 2;
+    let cells: Vec<Vec<String>> = rows
+        .iter()
+        .map(|(_, f)| columns.iter().map(f).collect())
+        .collect();
+    let col_w: Vec<usize> = (0..columns.len())
+        .map(|i| {
+            cells
+                .iter()
+                .map(|r| r[i].chars().count())
+                .chain(std::iter::once(columns[i].heading.chars().count()))
+                .max()
+                .unwrap_or(0)
+                + 3
+        })
+        .collect();
+    let mut out = String::new();
+    let _ = write!(out, "{:label_w$}", "");
+    for (c, w) in columns.iter().zip(&col_w) {
+        let _ = write!(out, "{:>w$}", c.heading, w = *w);
+    }
+    out.push('\n');
+    let total: usize = label_w + col_w.iter().sum::<usize>();
+    out.push_str(&"-".repeat(total));
+    out.push('\n');
+    for ((label, _), row) in rows.iter().zip(&cells) {
+        let pad = label_w.saturating_sub(label.chars().count());
+        let _ = write!(out, "{label}{}", " ".repeat(pad));
+        for (cell, w) in row.iter().zip(&col_w) {
+            let pad = w.saturating_sub(cell.chars().count());
+            let _ = write!(out, "{}{cell}", " ".repeat(pad));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// A few lines describing the scenario of a run.
+pub fn scenario_line(log: &RunLog) -> String {
+    let s = &log.scenario;
+    let w = &log.world;
+    let choice = s.landmark_choice().map(|c| c.code()).unwrap_or("?");
+    let mut text = format!(
+        "{}: {:.0} m tunnel, {:.1} m wide, wall roughness {} (σ); LMS511 {:.0} Hz, range noise {}; \
+         drive {:.0} m at up to {:.1} m/s; seed {}",
+        s.name,
+        w.tunnel_length_m,
+        w.width_m,
+        length(s.tunnel.roughness_sigma_m),
+        s.lidar.rate.frequency_hz(),
+        length(s.lidar.range_noise_m),
+        log.samples.last().map_or(0.0, |x| x.distance_m),
+        s.drive.cruise_speed_mps,
+        s.seed
+    );
+    if choice != "none" {
+        let _ = write!(
+            text,
+            "\nlandmarks {choice} (genes {:?}) on {} walls: {} designed, {} missing, {} damaged; matcher {}",
+            s.landmark_choice().map(|c| c.genes()).unwrap_or_default(),
+            match s.landmarks.walls {
+                crate::world::layout::WallChoice::Both => "both",
+                crate::world::layout::WallChoice::Left => "the left",
+                crate::world::layout::WallChoice::Right => "the right",
+            },
+            w.landmarks_designed,
+            w.landmarks_missing,
+            w.landmarks_damaged,
+            s.localizer.matcher.name()
+        );
+    } else {
+        let _ = write!(
+            text,
+            "\nno landmarks; matcher {}",
+            s.localizer.matcher.name()
+        );
+    }
+    text
+}
+
+/// The report of one run: scenario, then the run beside odometry alone.
+pub fn run_report(log: &RunLog, m: &Metrics) -> String {
+    let cols = [
+        Column {
+            heading: log.estimator.clone(),
+            log,
+            metrics: m,
+            odometry: false,
+        },
+        Column {
+            heading: "odometry alone".into(),
+            log,
+            metrics: m,
+            odometry: true,
+        },
+    ];
+    format!("{}\n\n{}", scenario_line(log), comparison_table(&cols))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::closed_loop::{run, OdometryOnly, RunOptions};
+    use crate::scenario::named::named;
+
+    #[test]
+    fn table_has_every_row_and_aligned_columns() {
+        let s = named("paper-10m").unwrap();
+        let world = s.build_world().unwrap();
+        let log = run(
+            &s,
+            &world,
+            &mut OdometryOnly::default(),
+            &RunOptions::default(),
+        );
+        let m = log.metrics();
+        let text = run_report(&log, &m);
+        assert!(text.contains("paper-10m") && text.contains("landmarks P1"));
+        let table: Vec<&str> = text.lines().skip_while(|l| !l.starts_with("   ")).collect();
+        assert!(table.len() >= 14, "{text}");
+        let widths: Vec<usize> = table
+            .iter()
+            .filter(|l| !l.starts_with('-'))
+            .map(|l| l.chars().count())
+            .collect();
+        assert!(widths.windows(2).all(|w| w[0] == w[1]), "{text}");
+        assert_eq!(length(0.0123), "12.3 mm");
+        assert_eq!(length(4.561), "4.56 m");
+    }
+}

@@ -1,0 +1,120 @@
+//! Command-line adjustments of a scenario (`--landmarks`, `--genes`, `--matcher`, `--seed`,
+//! …), applied on top of a named scenario or a file and validated like the file itself.
+
+use super::{MatcherChoice, Scenario, ScenarioError};
+use crate::landmarks::LandmarkChoice;
+use crate::lidar::ScanRate;
+
+/// Values given on the command line; `None` keeps the scenario's own.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    /// Landmark model: none, p1…p4, f1…f4.
+    pub landmarks: Option<String>,
+    /// Genes as text `W,H,D[,h1..h6]`.
+    pub genes: Option<String>,
+    /// Matcher.
+    pub matcher: Option<MatcherChoice>,
+    /// Seed.
+    pub seed: Option<u64>,
+    /// Every n-th landmark missing.
+    pub missing_every: Option<u32>,
+    /// Fraction of landmarks missing at random.
+    pub missing_fraction: Option<f64>,
+    /// Fraction of landmarks damaged.
+    pub damage_fraction: Option<f64>,
+    /// Length of the drive from its start, metres.
+    pub drive_length_m: Option<f64>,
+    /// Cruise speed, m/s.
+    pub speed_mps: Option<f64>,
+    /// LMS511 rate.
+    pub rate: Option<ScanRate>,
+    /// Range noise σ, metres.
+    pub range_noise_m: Option<f64>,
+}
+
+impl Overrides {
+    /// Applies the overrides and validates the result.
+    pub fn apply(&self, s: &mut Scenario) -> Result<(), ScenarioError> {
+        if let Some(m) = &self.landmarks {
+            s.landmarks.model = m.to_ascii_lowercase();
+            // Genes of another model do not carry over.
+            s.landmarks.genes = None;
+        }
+        if let Some(g) = &self.genes {
+            s.landmarks.genes = Some(LandmarkChoice::parse_genes(g)?);
+        }
+        if let Some(m) = self.matcher {
+            s.localizer.matcher = m;
+        }
+        if let Some(seed) = self.seed {
+            s.seed = seed;
+        }
+        if let Some(n) = self.missing_every {
+            s.landmarks.missing_every = Some(n);
+            s.landmarks.missing_fraction = None;
+        }
+        if let Some(f) = self.missing_fraction {
+            s.landmarks.missing_fraction = Some(f);
+            s.landmarks.missing_every = None;
+        }
+        if let Some(f) = self.damage_fraction {
+            s.landmarks.damage_fraction = f;
+        }
+        if let Some(len) = self.drive_length_m {
+            if !(len.is_finite() && len > 0.0) {
+                return Err(ScenarioError::Invalid {
+                    key: "drive.end_m",
+                    reason: format!("--length must be a positive number of metres, not {len}"),
+                });
+            }
+            s.drive.end_m = s.drive.start_m + len;
+        }
+        if let Some(v) = self.speed_mps {
+            s.drive.cruise_speed_mps = v;
+        }
+        if let Some(r) = self.rate {
+            s.lidar.rate = r;
+        }
+        if let Some(n) = self.range_noise_m {
+            s.lidar.range_noise_m = n;
+        }
+        s.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::named::named;
+
+    #[test]
+    fn overrides_apply_and_are_validated() {
+        let mut s = named("tunnel-1km").unwrap();
+        let o = Overrides {
+            landmarks: Some("F4".into()),
+            genes: Some("1.0,0.3,7.5,0.5,1,0,1,0.5,0".into()),
+            matcher: Some(MatcherChoice::Icp),
+            seed: Some(9),
+            missing_every: Some(5),
+            drive_length_m: Some(300.0),
+            ..Overrides::default()
+        };
+        o.apply(&mut s).unwrap();
+        assert_eq!(s.landmarks.model, "f4");
+        assert_eq!(s.landmarks.genes.as_ref().unwrap().len(), 9);
+        assert_eq!(s.localizer.matcher, MatcherChoice::Icp);
+        assert_eq!(s.seed, 9);
+        assert_eq!(s.drive.end_m, s.drive.start_m + 300.0);
+        let bad = Overrides {
+            genes: Some("1,2".into()),
+            ..Overrides::default()
+        };
+        assert!(bad.apply(&mut named("paper-10m").unwrap()).is_err());
+        let bad = Overrides {
+            missing_fraction: Some(1.5),
+            ..Overrides::default()
+        };
+        let e = bad.apply(&mut named("paper-10m").unwrap()).unwrap_err();
+        assert!(e.to_string().contains("landmarks.missing_fraction"), "{e}");
+    }
+}

@@ -1,0 +1,73 @@
+//! One call from a scenario to a finished run: build the world and the stored map, set up
+//! the estimator, drive, and return the [`RunLog`]. What the CLI, the demo and the
+//! integration tests call.
+
+use std::fmt;
+
+use crate::closed_loop::{self, Estimator, OdometryOnly, RunLog, RunOptions};
+use crate::scenario::{Scenario, ScenarioError};
+use crate::stored_map;
+
+/// Which estimator a run tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EstimatorChoice {
+    /// loc-core's localiser (the product).
+    #[default]
+    Localizer,
+    /// Odometry alone (the baseline).
+    OdometryOnly,
+}
+
+/// Why a run could not start.
+#[derive(Debug)]
+pub enum SimError {
+    /// The scenario is wrong.
+    Scenario(ScenarioError),
+    /// The design does not fit loc-core's stored map.
+    Map(loc_core::map::MapError),
+    /// loc-core's `Localizer` facade is not wired into host-sim in this build.
+    LocalizerNotWired,
+}
+
+impl fmt::Display for SimError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SimError::Scenario(e) => write!(f, "{e}"),
+            SimError::Map(e) => write!(
+                f,
+                "the tunnel's design does not fit loc-core's stored map: {e} (shorten the tunnel or widen the landmark spacing)"
+            ),
+            SimError::LocalizerNotWired => write!(
+                f,
+                "loc-core's Localizer is not wired into host-sim yet: run with --estimator odometry"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+impl From<ScenarioError> for SimError {
+    fn from(e: ScenarioError) -> Self {
+        SimError::Scenario(e)
+    }
+}
+
+/// Runs `scenario` with the chosen estimator.
+pub fn run_scenario(
+    scenario: &Scenario,
+    estimator: EstimatorChoice,
+    options: &RunOptions<'_>,
+) -> Result<RunLog, SimError> {
+    scenario.validate()?;
+    let world = scenario.build_world()?;
+    let mut est: Box<dyn Estimator> = match estimator {
+        EstimatorChoice::OdometryOnly => Box::new(OdometryOnly::default()),
+        EstimatorChoice::Localizer => {
+            let choice = scenario.landmark_choice()?;
+            let _map = stored_map::build(&world, &choice).map_err(SimError::Map)?;
+            return Err(SimError::LocalizerNotWired);
+        }
+    };
+    Ok(closed_loop::run(scenario, &world, est.as_mut(), options))
+}
