@@ -243,15 +243,15 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
     let log = run_with_progress(&s, est, &s.name, !a.quiet)?;
     let m = log.metrics();
     if a.json {
-        println!("{}", MetricsJson::new(&log, &m).to_json());
+        out(&MetricsJson::new(&log, &m).to_json());
     } else {
-        println!("{}", report::run_report(&log, &m));
+        out(&report::run_report(&log, &m));
     }
     if let Some(dir) = &a.out {
         let files = output::write_run(dir, "", &log, &m).map_err(|e| e.to_string())?;
         if !a.json {
             for f in files {
-                println!("wrote {}", f.display());
+                out(&format!("wrote {}", f.display()));
             }
         }
     }
@@ -271,8 +271,8 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
     let holes = run_with_progress(&missing, EstimatorChoice::Localizer, "1 in 5 missing", true)?;
     let without = run_with_progress(&bare, EstimatorChoice::Localizer, "no landmarks", true)?;
     let (mw, mh, mo) = (with.metrics(), holes.metrics(), without.metrics());
-    println!("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n");
-    println!("{}\n", report::scenario_line(&with));
+    out("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n");
+    out(&format!("{}\n", report::scenario_line(&with)));
     let cols = [
         Column {
             heading: "P1 landmarks".into(),
@@ -299,14 +299,17 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
             odometry: true,
         },
     ];
-    println!("{}", report::comparison_table(&cols));
-    println!(
+    out(&report::comparison_table(&cols));
+    out(&format!(
         "Without landmarks the walls still fix the lateral position and heading, but nothing fixes\n\
          the position along the tunnel: it drifts with odometry. With landmarks every {:.1} m (±0.625 m)\n\
          the error stays at the lidar's noise level for the whole drive.",
         base.landmark_choice().map(|c| c.spacing_m()).unwrap_or(0.0)
-    );
-    println!("\n(demo took {:.1} s)", started.elapsed().as_secs_f64());
+    ));
+    out(&format!(
+        "\n(demo took {:.1} s)",
+        started.elapsed().as_secs_f64()
+    ));
     Ok(())
 }
 
@@ -320,14 +323,11 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
             let text = map_export::to_json(&map).to_pretty();
             match &a.out {
                 Some(p) => write_file(p, text.as_bytes())?,
-                None => println!("{text}"),
+                None => out(&text),
             }
         }
         MapFormat::Postcard => {
-            let bytes: Vec<u8> = Err(
-                "postcard export waits for loc-core's map serialisation; use --format json"
-                    .to_string(),
-            )?;
+            let bytes = stored_map::to_file_bytes(&map).map_err(|e| e.to_string())?;
             let p = a
                 .out
                 .clone()
@@ -343,6 +343,14 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Prints a line to stdout; a closed pipe (`| head`) ends output quietly instead of
+/// panicking.
+fn out(text: &str) {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    let _ = writeln!(o, "{text}");
 }
 
 fn write_file(p: &Path, bytes: &[u8]) -> Result<(), String> {

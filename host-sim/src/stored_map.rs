@@ -108,6 +108,15 @@ pub fn build(world: &World, choice: &LandmarkChoice) -> Result<Box<TunnelMap>, M
     Ok(map)
 }
 
+/// The map file loc-core reads (header, version, CRC-32, postcard payload): what
+/// `export-map` writes for the firmware's flash.
+pub fn to_file_bytes(map: &TunnelMap) -> Result<Vec<u8>, MapError> {
+    let mut buf = vec![0u8; map.serialized_len()];
+    let n = map.to_slice(&mut buf)?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,5 +148,12 @@ mod tests {
             )
             .unwrap();
         assert!((hit.range_m - 2.5).abs() < 0.01, "{}", hit.range_m);
+        // The file round-trips through loc-core's loader, and is tens of KiB.
+        let bytes = to_file_bytes(&map).unwrap();
+        assert!(bytes.len() < 64 * 1024, "{} bytes", bytes.len());
+        let mut back = Box::<TunnelMap>::default();
+        back.load_from_bytes(&bytes).unwrap();
+        assert_eq!(back.segments().len(), map.segments().len());
+        assert_eq!(back.landmarks().len(), map.landmarks().len());
     }
 }
