@@ -4,9 +4,10 @@
 //! One scan runs four public stages, each callable on its own (benchmarks and the firmware
 //! time them separately):
 //! 1. [`crate::strip::strip_walls`]: label points wall / landmark / outlier (vehicle frame);
-//! 2. [`crate::matching::select_match_points`] and
-//!    [`crate::matching::prealign_along_tunnel`]: the points to match and a start pose;
-//! 3. [`crate::matching::match_scan`]: Hausdorff or PL-ICP against the map;
+//! 2. [`crate::matching::select_match_points`]: the points to match;
+//! 3. [`crate::matching::match_scan_with_prealign`]: landmark pre-alignment
+//!    ([`crate::matching::prealign_along_tunnel`]) and Hausdorff or PL-ICP matching
+//!    ([`crate::matching::match_scan`]) against the map;
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions.
 //!
 //! Memory: a `Localizer` holds its scratch buffers (≈ 22 KiB); keep it in a `static` or on
@@ -23,7 +24,7 @@ use crate::filter::{
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
 use crate::matching::{
-    match_scan, prealign_along_tunnel, select_match_points, MatchConfig, MatchError, MatchPoints,
+    match_scan_with_prealign, select_match_points, MatchConfig, MatchError, MatchPoints,
     MatchResult, MatchWorkspace, PrealignConfig,
 };
 use crate::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
@@ -283,18 +284,18 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let strip = strip_walls(points, &cfg.strip, labels);
         self.last_strip = Some(strip);
         select_match_points(points, labels, cfg.max_wall_points, &mut self.match_points);
-        let predicted = ekf.pose();
-        let start =
-            prealign_along_tunnel(self.map, points, labels, &strip, predicted, &cfg.prealign)
-                .map_or(predicted, |s| s.pose);
-        let result = match match_scan(
+        let result = match match_scan_with_prealign(
             self.map,
+            points,
+            labels,
+            &strip,
             &self.match_points,
-            start,
+            ekf.pose(),
+            &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
         ) {
-            Ok(r) => r,
+            Ok(r) => r.result,
             Err(e) => {
                 self.last_match = None;
                 self.status = Status::MatchRejected { reason: e.into() };

@@ -191,7 +191,12 @@ pub fn truncated_step(
         }
     }
     let step = s * (b_scaled * y) / (1.0 + damping.max(0.0));
-    hold_along_unobserved(step, &eq.information_points, min_information_points)
+    hold_along_unobserved(
+        step,
+        &eq.information_points,
+        min_information_points,
+        rotation_scale_m,
+    )
 }
 
 /// Gauge fix: a step may be changed by any multiple of the unobserved state direction
@@ -203,8 +208,9 @@ fn hold_along_unobserved(
     step: Vector3<f32>,
     information_points: &Matrix3<f32>,
     min_information_points: f32,
+    rotation_scale_m: f32,
 ) -> Vector3<f32> {
-    let deg = degeneracy(information_points, min_information_points);
+    let deg = degeneracy(information_points, min_information_points, rotation_scale_m);
     if !deg.degenerate {
         return step;
     }
@@ -233,14 +239,22 @@ pub struct Degeneracy {
     pub state_direction: [f32; 3],
     /// Largest eigenvalue of the 2×2 information, m⁻².
     pub max_eigenvalue_per_m2: f32,
-    /// True when `min_eigenvalue_per_m2` is below the matcher's threshold: the scan does not
-    /// observe position along `direction_world`.
+    /// True when the scan leaves a direction of the pose unobserved (fewer than three
+    /// directions reach the matcher's threshold, see [`observable_subspace`]); the position
+    /// along `direction_world` is then not observed.
     pub degenerate: bool,
 }
 
-/// The translation degeneracy of an information matrix (units m⁻² for translation).
-/// `threshold_per_m2` decides [`Degeneracy::degenerate`].
-pub fn degeneracy(information: &Matrix3<f32>, threshold_per_m2: f32) -> Degeneracy {
+/// The degeneracy of an information matrix, consistent with [`observable_subspace`]: the
+/// match is degenerate when fewer than three scaled eigen-directions reach
+/// `threshold_per_m2`, and the reported direction is then the translation part of the
+/// weakest one. The eigenvalue reported is that of the translation information with the
+/// heading marginalised (Schur complement `I_tt − I_tθ·I_θt / I_θθ`), in m⁻².
+pub fn degeneracy(
+    information: &Matrix3<f32>,
+    threshold_per_m2: f32,
+    rotation_scale_m: f32,
+) -> Degeneracy {
     let i_tt = information.fixed_view::<2, 2>(0, 0).into_owned();
     let i_tth = information.fixed_view::<2, 1>(0, 2).into_owned();
     let i_thth = information.m33;
@@ -267,6 +281,20 @@ pub fn degeneracy(information: &Matrix3<f32>, threshold_per_m2: f32) -> Degenera
         (l1, l0, eig.eigenvectors.column(1))
     };
     let mut d = Point2::new(v.x, v.y);
+    let observed = observable_subspace(information, threshold_per_m2, rotation_scale_m);
+    let degenerate = observed.rank < 3;
+    let mut state = None;
+    if degenerate {
+        // The weakest direction outside the observed subspace, as a state increment.
+        if let Some(u) = weakest_unobserved(information, &observed, rotation_scale_m) {
+            let t = Point2::new(u.x, u.y);
+            let tn = t.norm();
+            if tn > 0.1 * u.norm() {
+                d = t;
+                state = Some(u / tn);
+            }
+        }
+    }
     let n = d.norm();
     if !n.is_finite() || n <= 0.0 {
         return fallback;
@@ -276,19 +304,47 @@ pub fn degeneracy(information: &Matrix3<f32>, threshold_per_m2: f32) -> Degenera
     if d.x_m < 0.0 || (d.x_m == 0.0 && d.y_m < 0.0) {
         d = d.scale(-1.0);
     }
-    let dtheta = if i_thth > f32::MIN_POSITIVE {
-        -(i_tth.x * d.x_m + i_tth.y * d.y_m) / i_thth
-    } else {
-        0.0
+    // The heading change that goes with a move along d (zero in a straight tunnel): from the
+    // unobserved eigenvector, else the one that best compensates the move.
+    let dtheta = match state {
+        Some(u) => {
+            if u.x * d.x_m + u.y * d.y_m < 0.0 {
+                -u.z
+            } else {
+                u.z
+            }
+        }
+        None if i_thth > f32::MIN_POSITIVE => -(i_tth.x * d.x_m + i_tth.y * d.y_m) / i_thth,
+        None => 0.0,
     };
-    let lmin = lmin.max(0.0);
     Degeneracy {
-        min_eigenvalue_per_m2: lmin,
+        min_eigenvalue_per_m2: lmin.max(0.0),
         direction_world: d,
         state_direction: [d.x_m, d.y_m, dtheta],
         max_eigenvalue_per_m2: lmax.max(0.0),
-        degenerate: lmin < threshold_per_m2 || threshold_per_m2.is_nan(),
+        degenerate,
     }
+}
+
+/// The unobserved scaled eigenvector with the smallest eigenvalue, unscaled to a state
+/// increment `(x_m, y_m, theta_rad)`.
+fn weakest_unobserved(
+    information: &Matrix3<f32>,
+    observed: &ObservableSubspace,
+    rotation_scale_m: f32,
+) -> Option<Vector3<f32>> {
+    let s = scaling(rotation_scale_m);
+    let scaled = s * information * s;
+    let eig = SymmetricEigen::new(0.5 * (scaled + scaled.transpose()));
+    let mut best: Option<(f32, Vector3<f32>)> = None;
+    for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
+        // Unobserved: (nearly) orthogonal to every observed direction.
+        let overlap = (observed.scaled_basis.transpose() * v).norm();
+        if overlap < 0.5 && best.is_none_or(|(l, _)| lambda < l) {
+            best = Some((lambda, s * v));
+        }
+    }
+    best.map(|(_, u)| u)
 }
 
 /// The covariance `information⁻¹` restricted to the observed directions; along unobserved
@@ -344,7 +400,7 @@ mod tests {
     #[test]
     fn straight_tunnel_is_degenerate_along_x() {
         let eq = straight_walls();
-        let d = degeneracy(&(eq.information_points / 1e-4), 1e4);
+        let d = degeneracy(&(eq.information_points / 1e-4), 1e4, 10.0);
         assert!(d.degenerate);
         assert!(d.direction_world.x_m > 0.999, "{d:?}");
         assert!(d.max_eigenvalue_per_m2 > 1e5);

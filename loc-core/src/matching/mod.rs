@@ -30,7 +30,9 @@
 //! the (initially misaligned) landmark points first. Decimation also bounds the cost.
 //! Before matching, [`prealign_along_tunnel`] can shift the prediction along the tunnel so that
 //! observed landmark clusters sit on their map landmarks (a landmark is narrower than a
-//! typical along-tunnel prediction error, beyond which the nearest-segment association fails).
+//! typical along-tunnel prediction error, beyond which the nearest-segment association fails);
+//! [`match_scan_with_prealign`] runs pre-alignment and matching in the order the localizer
+//! uses.
 //!
 //! ## What it returns
 //! [`MatchResult`]: pose, 3×3 covariance `σ²·(ΣJᵀJ)⁻¹` from the point-to-line information of
@@ -41,6 +43,7 @@
 //! ([`UNOBSERVED_VARIANCE`]); the filter does not update them.
 
 mod association;
+mod guided;
 mod hausdorff;
 mod icp;
 mod information;
@@ -48,6 +51,7 @@ mod points;
 mod prealign;
 
 pub use association::{associate, select_k_best, Association};
+pub use guided::{match_scan_with_prealign, GuidedMatch};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, ObservableSubspace,
@@ -334,7 +338,7 @@ fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
         iterations: o.iterations,
         cost_m: o.cost_m,
         inliers: u16::try_from(o.equations.count).unwrap_or(u16::MAX),
-        degeneracy: degeneracy(&information, threshold),
+        degeneracy: degeneracy(&information, threshold, config.rotation_scale_m),
     }
 }
 

@@ -4,14 +4,18 @@
 //!
 //! Why: a landmark is about as wide as a typical along-tunnel prediction error (P1 default
 //! 0.5 m). With a larger error the landmark points fall beside their landmark, the nearest
-//! map geometry is the bare wall, and neither matcher can pull them back. Clusters are
-//! compared by centroids, so the shift is biased by at most a quarter of a landmark width
-//! (only the flank facing the sensor is seen); the matcher removes that residue.
+//! map geometry is the bare wall, and neither matcher can pull them back.
+//!
+//! Clusters and map landmarks are compared by **height-weighted centroids** (weight `h⁴`,
+//! `h` the height above the wall): the top of a landmark faces the tunnel and is seen from
+//! everywhere, while its flanks are seen one at a time, so weighting the top cuts the bias of a
+//! plain centroid (up to a quarter of the width) to a few centimetres for a triangle. The
+//! matcher removes the residue.
 //!
 //! The shift is along the tunnel only (the wall tangent from the stripper); it is skipped
 //! when clusters disagree, when it exceeds `max_shift_m`, or when no landmark is in view.
 
-use crate::geometry::{Point2, Pose2};
+use crate::geometry::{Point2, Pose2, Segment};
 use crate::map::MapQuery;
 use crate::math;
 use crate::strip::{PointLabel, StripSummary, VehiclePoint};
@@ -30,8 +34,16 @@ pub struct PrealignConfig {
     pub max_cluster_gap_m: f32,
     /// Fewest points in a cluster.
     pub min_cluster_points: u16,
-    /// Clusters whose along-tunnel offsets differ by more than this cancel the shift, metres.
+    /// Clusters whose along-tunnel offset differs from the weighted median by more than this
+    /// are ignored, metres; if they hold most of the points, no shift is made.
     pub max_disagreement_m: f32,
+    /// Clusters farther than this from the vehicle are ignored, metres (far landmarks are
+    /// sparsely sampled and half hidden, their centroids biased).
+    pub max_cluster_range_m: f32,
+    /// After a first match, a second pre-alignment from the matched pose shifting more than
+    /// this triggers a second match from the shifted pose, metres (see
+    /// [`super::match_scan_with_prealign`]).
+    pub rematch_min_shift_m: f32,
 }
 
 impl Default for PrealignConfig {
@@ -42,7 +54,9 @@ impl Default for PrealignConfig {
             search_radius_m: 2.5,
             max_cluster_gap_m: 0.3,
             min_cluster_points: 4,
-            max_disagreement_m: 0.4,
+            max_disagreement_m: 0.25,
+            max_cluster_range_m: 20.0,
+            rematch_min_shift_m: 0.03,
         }
     }
 }
@@ -65,9 +79,55 @@ const MAX_NEARBY: usize = 8;
 
 #[derive(Clone, Copy)]
 struct Cluster {
+    /// Σ w·p (vehicle frame) and Σ w with `w = h⁴`.
+    weighted_sum: Point2,
+    weight: f32,
+    /// Plain sum, for landmarks too flat to weight.
     sum: Point2,
     count: u16,
     last: Point2,
+}
+
+impl Cluster {
+    fn start(p: Point2, w: f32) -> Self {
+        Self {
+            weighted_sum: p.scale(w),
+            weight: w,
+            sum: p,
+            count: 1,
+            last: p,
+        }
+    }
+
+    fn add(self, p: Point2, w: f32) -> Self {
+        Self {
+            weighted_sum: self.weighted_sum.add(p.scale(w)),
+            weight: self.weight + w,
+            sum: self.sum.add(p),
+            count: self.count.saturating_add(1),
+            last: p,
+        }
+    }
+
+    fn centroid(&self) -> Point2 {
+        if self.weight > 1e-12 {
+            self.weighted_sum.scale(1.0 / self.weight)
+        } else {
+            self.sum.scale(1.0 / f32::from(self.count.max(1)))
+        }
+    }
+}
+
+/// The centroid weight of a point `height_m` above its wall: `h⁴`.
+#[inline]
+fn height_weight(height_m: f32) -> f32 {
+    let h = if height_m.is_finite() {
+        height_m.max(0.0)
+    } else {
+        0.0
+    };
+    let h2 = h * h;
+    h2 * h2
 }
 
 /// Shifts `predicted` along the tunnel so observed landmark clusters (from `labels`, in beam
@@ -93,23 +153,16 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
         if *l != PointLabel::Landmark || !p.is_finite() {
             continue;
         }
+        let w = height_weight(strip.inward_distance_m(p).unwrap_or(0.0));
         current = match current {
-            Some(c) if c.last.dist(p) <= config.max_cluster_gap_m => Some(Cluster {
-                sum: c.sum.add(p),
-                count: c.count.saturating_add(1),
-                last: p,
-            }),
+            Some(c) if c.last.dist(p) <= config.max_cluster_gap_m => Some(c.add(p, w)),
             other => {
                 if let Some(c) = other {
                     if c.count >= config.min_cluster_points {
                         let _ = clusters.push(c);
                     }
                 }
-                Some(Cluster {
-                    sum: p,
-                    count: 1,
-                    last: p,
-                })
+                Some(Cluster::start(p, w))
             }
         };
     }
@@ -122,7 +175,10 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
     // Per cluster: along-tunnel offset to the nearest map landmark, weighted by points.
     let mut offsets: heapless::Vec<(f32, Point2, f32), MAX_CLUSTERS> = heapless::Vec::new();
     for c in &clusters {
-        let centroid_v = c.sum.scale(1.0 / f32::from(c.count));
+        let centroid_v = c.centroid();
+        if centroid_v.norm() > config.max_cluster_range_m {
+            continue;
+        }
         let centroid_w = predicted.transform_point(centroid_v);
         let tangent_w = predicted.rotate_vector(strip.tunnel_tangent_at(centroid_v));
         let Some(landmark_w) = nearest_landmark_centroid(map, centroid_w, config.search_radius_m)
@@ -135,18 +191,30 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
     if offsets.is_empty() {
         return None;
     }
+    // Weighted median, then the clusters that agree with it.
     let total_w: f32 = offsets.iter().map(|o| o.2).sum();
-    let mean_along = offsets.iter().map(|o| o.0 * o.2).sum::<f32>() / total_w;
-    if offsets
-        .iter()
-        .any(|o| math::abs(o.0 - mean_along) > config.max_disagreement_m)
-        || !mean_along.is_finite()
-        || math::abs(mean_along) > config.max_shift_m
-    {
+    let mut sorted = offsets.clone();
+    sorted.sort_unstable_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(core::cmp::Ordering::Equal));
+    let mut acc = 0.0;
+    let mut median = 0.0;
+    for o in &sorted {
+        acc += o.2;
+        median = o.0;
+        if acc >= 0.5 * total_w {
+            break;
+        }
+    }
+    offsets.retain(|o| math::abs(o.0 - median) <= config.max_disagreement_m);
+    let agree_w: f32 = offsets.iter().map(|o| o.2).sum();
+    if offsets.is_empty() || agree_w < 0.5 * total_w {
+        return None;
+    }
+    let mean_along = offsets.iter().map(|o| o.0 * o.2).sum::<f32>() / agree_w;
+    if !mean_along.is_finite() || math::abs(mean_along) > config.max_shift_m {
         return None;
     }
     let shift = offsets.iter().fold(Point2::ORIGIN, |acc, o| {
-        acc.add(o.1.scale(o.0 * o.2 / total_w))
+        acc.add(o.1.scale(o.0 * o.2 / agree_w))
     });
     Some(PrealignShift {
         pose: Pose2::new(
@@ -159,9 +227,13 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
     })
 }
 
-/// The length-weighted centroid of the map landmark nearest to `p` (by centroid) among those
-/// with a segment within `radius_m`.
+/// Most segments of one landmark considered.
+const MAX_LANDMARK_SEGMENTS: usize = 16;
+
+/// The height-weighted centroid (see the module docs) of the map landmark nearest to `p`
+/// among those with a segment within `radius_m`.
 fn nearest_landmark_centroid<M: MapQuery>(map: &M, p: Point2, radius_m: f32) -> Option<Point2> {
+    // Pass 1: pick the landmark whose plain centroid is nearest.
     let mut nearby: heapless::Vec<(u16, Point2, f32), MAX_NEARBY> = heapless::Vec::new();
     map.for_each_landmark_segment_near(p, radius_m, &mut |id, seg| {
         let len = seg.length();
@@ -176,9 +248,56 @@ fn nearest_landmark_centroid<M: MapQuery>(map: &M, p: Point2, radius_m: f32) -> 
             let _ = nearby.push((id, mid.scale(len), len));
         }
     });
-    nearby.iter().map(|e| e.1.scale(1.0 / e.2)).min_by(|a, b| {
-        a.dist_sq(p)
-            .partial_cmp(&b.dist_sq(p))
-            .unwrap_or(core::cmp::Ordering::Equal)
+    let (id, plain) = nearby
+        .iter()
+        .map(|e| (e.0, e.1.scale(1.0 / e.2)))
+        .min_by(|a, b| {
+            a.1.dist_sq(p)
+                .partial_cmp(&b.1.dist_sq(p))
+                .unwrap_or(core::cmp::Ordering::Equal)
+        })?;
+    // Pass 2: its segments, base line (the farthest-apart endpoints) and weighted centroid.
+    let mut segs: heapless::Vec<Segment, MAX_LANDMARK_SEGMENTS> = heapless::Vec::new();
+    map.for_each_landmark_segment_near(p, radius_m, &mut |i, seg| {
+        if i == id && !segs.contains(&seg) {
+            let _ = segs.push(seg);
+        }
+    });
+    let mut base = (plain, plain);
+    let mut best = -1.0f32;
+    for s1 in &segs {
+        for s2 in &segs {
+            for (a, b) in [(s1.a, s2.a), (s1.a, s2.b), (s1.b, s2.a), (s1.b, s2.b)] {
+                let d = a.dist_sq(b);
+                if d > best {
+                    best = d;
+                    base = (a, b);
+                }
+            }
+        }
+    }
+    let axis = base.1.sub(base.0);
+    let len = axis.norm();
+    if !len.is_finite() || len <= 1e-6 {
+        return Some(plain);
+    }
+    let normal = axis.perp().scale(1.0 / len);
+    let (mut sum, mut weight) = (Point2::ORIGIN, 0.0f32);
+    const SAMPLES: usize = 8;
+    for seg in &segs {
+        let step = seg.length() / SAMPLES as f32;
+        for k in 0..SAMPLES {
+            let q = seg
+                .a
+                .add(seg.b.sub(seg.a).scale((k as f32 + 0.5) / SAMPLES as f32));
+            let w = height_weight(math::abs(q.sub(base.0).dot(normal))) * step;
+            sum = sum.add(q.scale(w));
+            weight += w;
+        }
+    }
+    Some(if weight > 1e-12 {
+        sum.scale(1.0 / weight)
+    } else {
+        plain
     })
 }

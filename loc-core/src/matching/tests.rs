@@ -132,17 +132,20 @@ fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) ->
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
     let mut sel = MatchPoints::new();
     select_match_points(&pts, &labels, 160, &mut sel);
-    let start = prealign_along_tunnel(
+    let mut ws = MatchWorkspace::new();
+    match_scan_with_prealign(
         map,
         &pts,
         &labels,
         &strip,
+        &sel,
         guess,
         &PrealignConfig::default(),
+        config,
+        &mut ws,
     )
-    .map_or(guess, |s| s.pose);
-    let mut ws = MatchWorkspace::new();
-    match_scan(map, &sel, start, config, &mut ws).unwrap()
+    .unwrap()
+    .result
 }
 
 fn assert_close(r: &MatchResult, truth: Pose2, tol_m: f32, tol_rad: f32) {

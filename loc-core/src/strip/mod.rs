@@ -183,6 +183,20 @@ impl StripSummary {
     }
 }
 
+impl StripSummary {
+    /// How far `p` (vehicle frame) stands off the nearer fitted wall into the tunnel, metres
+    /// (negative behind the wall); `None` without walls.
+    pub fn inward_distance_m(&self, p: Point2) -> Option<f32> {
+        let l = self.left.map(|w| -w.cubic.signed_distance_m(p));
+        let r = self.right.map(|w| w.cubic.signed_distance_m(p));
+        match (l, r) {
+            (Some(l), Some(r)) => Some(if math::abs(l) <= math::abs(r) { l } else { r }),
+            (Some(d), None) | (None, Some(d)) => Some(d),
+            (None, None) => None,
+        }
+    }
+}
+
 /// Strips the walls from a scan: fits both walls and writes one label per point into
 /// `labels` (only the first `min(points.len(), labels.len())` points are processed).
 ///

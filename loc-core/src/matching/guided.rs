@@ -1,0 +1,64 @@
+//! Matching guided by landmark pre-alignment: the sequence the localizer runs.
+//!
+//! 1. Pre-align the prediction along the tunnel on the landmark clusters, match from there.
+//! 2. Pre-align again from the matched pose: with the heading and the lateral offset now
+//!    fixed by the walls, landmark clusters land where they truly are (a 3° heading error
+//!    moves a landmark 10 m away by half a metre, enough to make the first pre-alignment
+//!    give up). If this asks for a shift above `rematch_min_shift_m`, match again from the
+//!    shifted pose and keep that result.
+//!
+//! In steady tracking the second pre-alignment finds nothing to shift and costs only the
+//! clustering pass; the second match runs only after a large along-tunnel error.
+
+use super::{match_scan, prealign_along_tunnel, MatchConfig, MatchError, MatchResult};
+use super::{MatchWorkspace, PrealignConfig, PrealignShift};
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+use crate::strip::{PointLabel, StripSummary, VehiclePoint};
+
+/// A guided match and the pre-alignment that started its final run, if any.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuidedMatch {
+    /// The match.
+    pub result: MatchResult,
+    /// The pre-alignment shift applied before the final run.
+    pub prealign: Option<PrealignShift>,
+    /// True when a second match was run after re-pre-aligning.
+    pub rematched: bool,
+}
+
+/// Matches `selected` (vehicle frame, from [`super::select_match_points`]) against `map`,
+/// pre-aligning on the landmark clusters of `points`/`labels` (the whole scan in beam order
+/// and its stripping labels) as described in the module docs.
+#[allow(clippy::too_many_arguments)]
+pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
+    map: &M,
+    points: &[P],
+    labels: &[PointLabel],
+    strip: &StripSummary,
+    selected: &[Point2],
+    predicted: Pose2,
+    prealign: &PrealignConfig,
+    config: &MatchConfig,
+    workspace: &mut MatchWorkspace,
+) -> Result<GuidedMatch, MatchError> {
+    let first_shift = prealign_along_tunnel(map, points, labels, strip, predicted, prealign);
+    let start = first_shift.map_or(predicted, |s| s.pose);
+    let first = match_scan(map, selected, start, config, workspace)?;
+    let again = prealign_along_tunnel(map, points, labels, strip, first.pose, prealign)
+        .filter(|s| s.shift_world.norm() > prealign.rematch_min_shift_m);
+    if let Some(shift) = again {
+        if let Ok(second) = match_scan(map, selected, shift.pose, config, workspace) {
+            return Ok(GuidedMatch {
+                result: second,
+                prealign: Some(shift),
+                rematched: true,
+            });
+        }
+    }
+    Ok(GuidedMatch {
+        result: first,
+        prealign: first_shift,
+        rematched: false,
+    })
+}

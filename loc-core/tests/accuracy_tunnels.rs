@@ -1,0 +1,308 @@
+//! Accuracy of the estimation pipeline on the test kit's synthetic tunnels (straight 1 km or
+//! radius-50 m 300 m long, 5 m wide,
+//! LMS511 geometry 190° / 0.1667° / 1141 beams, range noise σ = 10 mm).
+//!
+//! Start error everywhere: 0.5 m along the tunnel, 0.1 m across, 3° in heading.
+//! - With P1 landmarks (straight and radius-50 m tunnels) both matchers, and the
+//!   `Localizer`, must land within 10 mm and 0.2° of the truth.
+//! - Without landmarks the along-tunnel direction must be reported degenerate, the estimate
+//!   must not move along it, and across-tunnel position and heading must still be corrected.
+//!
+//! Errors are measured in tunnel coordinates (arc length, lateral offset, heading relative
+//! to the tunnel axis), which for the straight tunnel are plain x, y, θ.
+
+use loc_core::filter::OdometryIncrement;
+use loc_core::geometry::Pose2;
+use loc_core::landmark::LandmarkModel;
+use loc_core::localizer::{Localizer, LocalizerConfig, Status};
+use loc_core::map::TunnelMap;
+use loc_core::matching::{
+    match_scan_with_prealign, select_match_points, MatchConfig, MatchPoints, MatchResult,
+    MatchWorkspace, MatcherKind, PrealignConfig,
+};
+use loc_core::math;
+use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::strip::{strip_walls, PointLabel, StripConfig};
+use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
+use nalgebra::{Matrix3, Vector3};
+
+const TOL_M: f32 = 0.010;
+const TOL_RAD: f32 = 0.2 * core::f32::consts::PI / 180.0;
+
+struct Tunnel {
+    spec: TunnelSpec,
+    map: Box<TunnelMap>,
+}
+
+impl Tunnel {
+    fn new(curved: bool, landmarks: bool) -> Self {
+        // A radius-50 m circle is 314 m round: a longer curved tunnel would overlap itself.
+        let mut spec = if curved {
+            TunnelSpec::curved(300.0)
+        } else {
+            TunnelSpec::straight(1000.0)
+        };
+        if landmarks {
+            spec = spec.with_landmarks(LandmarkLayout::paper(LandmarkModel::P1Triangle, 11));
+        }
+        let mut map = Box::new(TunnelMap::new());
+        spec.build_into(&mut *map)
+            .expect("test tunnel fits the map");
+        Self { spec, map }
+    }
+
+    /// (arc length, lateral offset to the left, heading relative to the tunnel axis).
+    fn tunnel_coords(&self, p: Pose2) -> (f32, f32, f32) {
+        match self.spec.radius_m {
+            None => (p.x_m, p.y_m, p.theta_rad),
+            Some(r) => {
+                let phi = math::atan2(p.x_m, r - p.y_m);
+                let dist = math::hypot(p.x_m, p.y_m - r);
+                (r * phi, r - dist, math::wrap_angle(p.theta_rad - phi))
+            }
+        }
+    }
+
+    /// The pose at arc `s_m`, `lateral_m` left of the centre line, `heading_rad` off the axis.
+    fn pose(&self, s_m: f32, lateral_m: f32, heading_rad: f32) -> Pose2 {
+        let c = self.spec.centre_pose(s_m, lateral_m);
+        Pose2::new(c.x_m, c.y_m, c.theta_rad + heading_rad)
+    }
+
+    fn scan(&self, truth: Pose2, seed: u64) -> Box<Scan> {
+        let mut scan = Box::new(Scan::new());
+        let mut sim = ScanSimulator::new(seed);
+        sim.simulate_scan(
+            &*self.map,
+            &truth,
+            &SensorSetup::default(),
+            LMS511_MAX_BEAMS,
+            &mut scan,
+        );
+        scan
+    }
+}
+
+/// The stages the localizer runs, called one by one.
+fn stages(t: &Tunnel, scan: &Scan, guess: Pose2, matcher: MatcherKind) -> MatchResult {
+    let points = scan.points();
+    let mut labels = vec![PointLabel::Outlier; points.len()];
+    let strip = strip_walls(points, &StripConfig::default(), &mut labels);
+    assert!(strip.left.is_some() && strip.right.is_some(), "{strip:?}");
+    let mut selected = MatchPoints::new();
+    select_match_points(points, &labels, 160, &mut selected);
+    let config = MatchConfig {
+        matcher,
+        ..MatchConfig::default()
+    };
+    let mut ws = Box::new(MatchWorkspace::new());
+    match_scan_with_prealign(
+        &*t.map,
+        points,
+        &labels,
+        &strip,
+        &selected,
+        guess,
+        &PrealignConfig::default(),
+        &config,
+        &mut ws,
+    )
+    .expect("match succeeds")
+    .result
+}
+
+fn assert_within(t: &Tunnel, got: Pose2, truth: Pose2, what: &str) {
+    let (s, l, h) = t.tunnel_coords(got);
+    let (s0, l0, h0) = t.tunnel_coords(truth);
+    let (es, el, eh) = (
+        (s - s0).abs(),
+        (l - l0).abs(),
+        math::wrap_angle(h - h0).abs(),
+    );
+    assert!(
+        math::hypot(es, el) < TOL_M && eh < TOL_RAD,
+        "{what}: along {es} m, across {el} m, heading {} deg",
+        eh.to_degrees()
+    );
+}
+
+fn initial_cov() -> Matrix3<f32> {
+    Matrix3::from_diagonal(&Vector3::new(
+        0.5f32.powi(2),
+        0.5f32.powi(2),
+        3f32.to_radians().powi(2),
+    ))
+}
+
+fn check_with_landmarks(curved: bool) {
+    let t = Tunnel::new(curved, true);
+    let places: [f32; 3] = if curved {
+        [60.0, 150.3, 240.9]
+    } else {
+        [100.0, 347.3, 612.9]
+    };
+    for (k, s) in places.into_iter().enumerate() {
+        let truth = t.pose(s, 0.3, 0.02);
+        let guess = t.pose(s + 0.5, 0.2, 0.02 + 3f32.to_radians());
+        let scan = t.scan(truth, 100 + k as u64);
+        for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+            let r = stages(&t, &scan, guess, matcher);
+            assert!(
+                !r.degeneracy.degenerate,
+                "{matcher:?} at {s}: {:?}",
+                r.degeneracy
+            );
+            assert_within(&t, r.pose, truth, &format!("{matcher:?} match at s = {s}"));
+
+            let config = LocalizerConfig {
+                matching: MatchConfig {
+                    matcher,
+                    ..MatchConfig::default()
+                },
+                ..LocalizerConfig::default()
+            };
+            let mut loc = Box::new(Localizer::new(&*t.map, config, guess, initial_cov()).unwrap());
+            let status = loc.update_scan(&scan);
+            assert_eq!(status, Status::Tracking, "{matcher:?} at {s}");
+            assert_within(
+                &t,
+                loc.pose().unwrap(),
+                truth,
+                &format!("{matcher:?} localizer at s = {s}"),
+            );
+        }
+    }
+}
+
+fn check_without_landmarks(curved: bool) {
+    let t = Tunnel::new(curved, false);
+    let places: [f32; 2] = if curved {
+        [100.0, 200.0]
+    } else {
+        [100.0, 512.5]
+    };
+    for (k, s) in places.into_iter().enumerate() {
+        let truth = t.pose(s, 0.3, 0.02);
+        let guess = t.pose(s + 0.5, 0.2, 0.02 + 3f32.to_radians());
+        let scan = t.scan(truth, 200 + k as u64);
+        for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+            let config = LocalizerConfig {
+                matching: MatchConfig {
+                    matcher,
+                    ..MatchConfig::default()
+                },
+                ..LocalizerConfig::default()
+            };
+            let mut loc = Box::new(Localizer::new(&*t.map, config, guess, initial_cov()).unwrap());
+            let status = loc.update_scan(&scan);
+            let Status::Degenerate {
+                direction_world, ..
+            } = status
+            else {
+                panic!("{matcher:?} at {s}: expected Degenerate, got {status:?}");
+            };
+            // The reported direction is the tunnel axis at the vehicle.
+            let axis = t.spec.centre_pose(s, 0.0).theta_rad;
+            let along = (direction_world.x_m * math::cos(axis)
+                + direction_world.y_m * math::sin(axis))
+            .abs();
+            assert!(along > 0.999, "{matcher:?}: direction {direction_world:?}");
+
+            let got = loc.pose().unwrap();
+            let (sg, lg, hg) = t.tunnel_coords(got);
+            let (s_guess, _, _) = t.tunnel_coords(guess);
+            let (_, l0, h0) = t.tunnel_coords(truth);
+            assert!(
+                (sg - s_guess).abs() < 1e-3,
+                "{matcher:?}: moved along by {} m",
+                sg - s_guess
+            );
+            assert!(
+                (lg - l0).abs() < TOL_M,
+                "{matcher:?}: across error {} m",
+                lg - l0
+            );
+            assert!(
+                math::wrap_angle(hg - h0).abs() < TOL_RAD,
+                "{matcher:?}: heading error {} deg",
+                math::wrap_angle(hg - h0).to_degrees()
+            );
+            // Along the axis the variance is still the prior's (nothing learnt from the scan).
+            let c = loc.covariance_matrix().unwrap();
+            let d = Vector3::new(direction_world.x_m, direction_world.y_m, 0.0);
+            let var_along = (d.transpose() * c * d).x;
+            assert!(
+                (var_along - 0.25).abs() < 1e-3,
+                "{matcher:?}: along variance {var_along}"
+            );
+        }
+    }
+}
+
+#[test]
+fn straight_tunnel_with_p1_landmarks_recovers_pose() {
+    check_with_landmarks(false);
+}
+
+#[test]
+fn curved_tunnel_with_p1_landmarks_recovers_pose() {
+    check_with_landmarks(true);
+}
+
+#[test]
+fn straight_tunnel_without_landmarks_is_degenerate_along() {
+    check_without_landmarks(false);
+}
+
+#[test]
+fn curved_tunnel_without_landmarks_is_degenerate_along() {
+    check_without_landmarks(true);
+}
+
+/// Driving 30 m (60 scans, 0.5 m apart) through the curved landmark tunnel with a 3 %
+/// odometry scale error and a slow lateral drift: every scan is used (tracking, or degenerate
+/// when a scan sees too little of a landmark), and the closed-loop error stays small.
+#[test]
+fn drives_through_the_landmark_tunnel() {
+    let t = Tunnel::new(true, true);
+    for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+        let mut truth = t.pose(200.0, 0.2, 0.0);
+        let config = LocalizerConfig {
+            matching: MatchConfig {
+                matcher,
+                ..MatchConfig::default()
+            },
+            ..LocalizerConfig::default()
+        };
+        let mut loc =
+            Box::new(Localizer::new(&*t.map, config, truth, initial_cov() * 0.01).unwrap());
+        let (mut sum_sq, mut worst, mut worst_heading) = (0.0f32, 0.0f32, 0.0f32);
+        for k in 0..60u64 {
+            let next = t.pose(200.0 + 0.5 * (k + 1) as f32, 0.2 + 0.002 * k as f32, 0.0);
+            let step = OdometryIncrement::between(&truth, &next);
+            let measured = OdometryIncrement {
+                dx_m: step.dx_m * 1.03,
+                ..step
+            };
+            loc.predict_odometry(&measured).unwrap();
+            truth = next;
+            let status = loc.update_scan(&t.scan(truth, 1000 + k));
+            assert!(
+                matches!(status, Status::Tracking | Status::Degenerate { .. }),
+                "{matcher:?} scan {k}: {status:?}"
+            );
+            let (s, l, h) = t.tunnel_coords(loc.pose().unwrap());
+            let (s0, l0, h0) = t.tunnel_coords(truth);
+            let e = math::hypot(s - s0, l - l0);
+            sum_sq += e * e;
+            worst = worst.max(e);
+            worst_heading = worst_heading.max(math::wrap_angle(h - h0).abs());
+        }
+        let rms = (sum_sq / 60.0).sqrt();
+        assert!(
+            rms < TOL_M && worst < 2.0 * TOL_M && worst_heading < TOL_RAD,
+            "{matcher:?}: RMS {rms} m, worst {worst} m, worst heading {} deg",
+            worst_heading.to_degrees()
+        );
+    }
+}
