@@ -13,6 +13,10 @@
 //! | [`scandata`] | zero-copy `LMDscandata` decoder ([`ScanData`]) |
 //! | `scan_repr` | owned scan ([`ScanRepr`], feature `alloc`) emitted as CoLa-A / CoLa-B |
 //! | `recording` | readers for raw streams, pcap, pcapng and SICK `.pcapng.json` (feature `std`) |
+//! | [`clock`] | the caller-given millisecond [`Clock`] of the session's time-outs |
+//! | [`transport`] | the re-connectable byte-stream contract ([`Transport`]); TCP and serial links (feature `std`) |
+//! | [`session`] | poll-driven start-up sequence, readiness wait, scan stream, re-connect ([`Session`]) |
+//! | `emulator` | LMS5xx TCP / byte-stream emulator: both dialects, busy start-up, scan sources, faults (feature `std`) |
 //!
 //! ```
 //! use lidar_driver::{Framer, Answer, Dialect, Request};
@@ -32,21 +36,27 @@ extern crate alloc;
 
 pub mod answer;
 pub mod args;
+pub mod clock;
 pub mod frame;
 pub mod framer;
 pub mod request;
 pub mod scandata;
+pub mod session;
 pub mod sopas_error;
 pub mod telegram;
+pub mod transport;
 
 #[cfg(feature = "alloc")]
 mod scan_repr;
 
 #[cfg(feature = "std")]
+pub mod emulator;
+#[cfg(feature = "std")]
 pub mod recording;
 
 pub use answer::{Answer, AnswerError, DeviceState, ScanConfigError};
 pub use args::{ArgError, ArgErrorKind, ArgReader, EmitError, LenWidth, TelegramWriter};
+pub use clock::Clock;
 pub use frame::{xor_checksum, Dialect, Frame, FrameError};
 pub use framer::{Framer, FramerStats};
 pub use request::{
@@ -55,5 +65,7 @@ pub use request::{
 #[cfg(feature = "alloc")]
 pub use scan_repr::{ChannelRepr, ScanRepr};
 pub use scandata::{Channel, ChannelBits, ChannelKind, ScanData, ScanError, ScanField, ScanHeader};
+pub use session::{Event, Session, SessionConfig, SessionError};
 pub use sopas_error::SopasError;
 pub use telegram::{CommandType, Telegram, TelegramError};
+pub use transport::Transport;

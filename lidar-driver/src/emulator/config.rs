@@ -1,0 +1,120 @@
+//! What the emulated LMS5xx is (identity, start-up delay, rate, dialect) and which faults it
+//! injects.
+
+use std::time::Duration;
+
+use crate::frame::Dialect;
+use crate::request::{OutputRange, ScanConfig, ScanDataConfig};
+
+/// Which dialect the emulated device speaks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DialectMode {
+    /// Whatever the first frame of each connection uses (frames of the other dialect are then
+    /// ignored, as a real device would not understand them).
+    Auto,
+    /// Only this dialect (like a real device's `EIHstCola` setting); frames of the other are
+    /// ignored, so a client's probe in the wrong dialect gets no answer.
+    Only(Dialect),
+}
+
+/// The device's fixed answers. [`DeviceIdentity::LMS511_CAPTURE`] holds exactly what the LMS511
+/// of `lms511_20210302_colab.pcapng.json` answered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceIdentity {
+    /// `sRA FirmwareVersion`.
+    pub firmware_version: Vec<u8>,
+    /// `sRA LocationName`.
+    pub location_name: Vec<u8>,
+    /// `sRA ODoprh` (operating hours counter as sent).
+    pub operating_hours: u32,
+    /// `sRA ODpwrc` (power-on counter).
+    pub power_on_count: u32,
+    /// `LMPoutputRange` at power-up.
+    pub output_range: OutputRange,
+    /// `LMDscandatacfg` at power-up.
+    pub scan_data: ScanDataConfig,
+    /// `LMPscancfg` at power-up.
+    pub scan_config: ScanConfig,
+}
+
+impl DeviceIdentity {
+    /// The LMS511 (firmware V1.80, serial 18110550) of the capture.
+    pub fn lms511_capture() -> Self {
+        DeviceIdentity {
+            firmware_version: b"V1.80    ".to_vec(),
+            location_name: b"SN 18110550".to_vec(),
+            operating_hours: 0x04ab,
+            power_on_count: 0x63,
+            output_range: OutputRange {
+                sectors: 1,
+                step_1e4_deg: 1667,
+                start_1e4_deg: -50_000,
+                stop_1e4_deg: 1_850_000,
+            },
+            scan_data: crate::session::SessionConfig::CAPTURE_SCAN_DATA,
+            scan_config: ScanConfig {
+                frequency_1e2_hz: 2500,
+                sectors: 1,
+                step_1e4_deg: 1667,
+                start_1e4_deg: -50_000,
+                stop_1e4_deg: 1_850_000,
+            },
+        }
+    }
+}
+
+impl Default for DeviceIdentity {
+    fn default() -> Self {
+        Self::lms511_capture()
+    }
+}
+
+/// Faults to inject, for tests of the client's recovery.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Faults {
+    /// Close a connection after this many scans on it.
+    pub drop_after_scans: Option<u64>,
+    /// How many connections are dropped that way at most (then streams run on).
+    pub max_drops: u32,
+    /// Before every n-th scan, send garbage bytes (including stray start markers and a
+    /// CoLa-B header with an impossible length).
+    pub garbage_every: Option<u64>,
+    /// Damage every n-th scan frame (CoLa-B: its checksum; CoLa-A: a control byte inside).
+    pub corrupt_every: Option<u64>,
+    /// Accept connections but never answer (a hung device).
+    pub silent: bool,
+}
+
+/// Emulator settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmulatorConfig {
+    /// TCP port on 127.0.0.1; 0 = any free port (see [`super::Emulator::addr`]).
+    pub port: u16,
+    /// Dialect behaviour.
+    pub dialect: DialectMode,
+    /// Scan rate at power-up, Hz (25 like the LMS511); `mLMPsetscancfg` changes it.
+    pub rate_hz: f32,
+    /// `SCdevicestate` answers busy (0) and other requests `sFA 13` for this long after start.
+    pub startup_delay: Duration,
+    /// Fixed answers.
+    pub identity: DeviceIdentity,
+    /// Overwrite the scans' counters, timestamps and frequency as a live device would (off:
+    /// send the source's scans unchanged).
+    pub restamp: bool,
+    /// Fault injection.
+    pub faults: Faults,
+}
+
+impl Default for EmulatorConfig {
+    fn default() -> Self {
+        EmulatorConfig {
+            port: 0,
+            dialect: DialectMode::Auto,
+            rate_hz: 25.0,
+            startup_delay: Duration::ZERO,
+            identity: DeviceIdentity::default(),
+            restamp: true,
+            faults: Faults::default(),
+        }
+    }
+}

@@ -1,0 +1,489 @@
+//! The emulated device's protocol logic for one connection: requests in, answers and scans
+//! out (no I/O here; [`super::serve`] moves the bytes).
+
+use std::time::{Duration, Instant};
+
+use crate::answer::{Answer, DeviceState};
+use crate::args::{ArgErrorKind, TelegramWriter};
+use crate::frame::{Dialect, Frame};
+use crate::request::{names, AccessLevel, EchoFilter, Request, RequestError, ScanConfig};
+use crate::scan_repr::ScanRepr;
+use crate::sopas_error::SopasError;
+use crate::telegram::{CommandType, Telegram};
+
+use super::config::{DialectMode, EmulatorConfig};
+use super::Shared;
+
+/// LMS511 frequency / resolution pairs (1/100 Hz, 1/10000°) within its 54 kHz shot rate.
+pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
+    (2500, 1667),
+    (3500, 2500),
+    (5000, 3333),
+    (7500, 5000),
+    (10000, 6667),
+];
+
+/// LMS511 field of view, 1/10000°.
+const FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
+
+/// Settings that outlive a connection (the device keeps them until power-off).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Settings {
+    pub(crate) output_range: crate::request::OutputRange,
+    pub(crate) scan_data: crate::request::ScanDataConfig,
+    pub(crate) scan_config: ScanConfig,
+    pub(crate) echo_filter: EchoFilter,
+    /// `EIHstCola` written: applies to the next connections (with [`DialectMode::Only`]).
+    pub(crate) host_dialect: Option<Dialect>,
+    /// Scans sent since power-up (counters of restamped scans).
+    pub(crate) scans_sent: u64,
+}
+
+impl Settings {
+    pub(crate) fn new(cfg: &EmulatorConfig) -> Self {
+        let mut scan_config = cfg.identity.scan_config;
+        scan_config.frequency_1e2_hz = (cfg.rate_hz * 100.0).round().max(1.0) as u32;
+        Settings {
+            output_range: cfg.identity.output_range,
+            scan_data: cfg.identity.scan_data,
+            scan_config,
+            echo_filter: EchoFilter::First,
+            host_dialect: None,
+            scans_sent: 0,
+        }
+    }
+}
+
+/// What the connection loop must do after handling input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    /// Go on.
+    Continue,
+    /// Close the connection (fault injection).
+    Drop,
+}
+
+/// One client connection's protocol state.
+pub(crate) struct Connection<'s> {
+    shared: &'s Shared,
+    dialect: Option<Dialect>,
+    level: u8,
+    config_mode: bool,
+    subscribed: bool,
+    next_scan: Option<Instant>,
+    scans_here: u64,
+    verdict: Verdict,
+    tx: Vec<u8>,
+}
+
+impl<'s> Connection<'s> {
+    pub(crate) fn new(shared: &'s Shared) -> Self {
+        let dialect = match shared.config.dialect {
+            DialectMode::Auto => None,
+            DialectMode::Only(d) => Some(shared.settings().host_dialect.unwrap_or(d)),
+        };
+        Connection {
+            shared,
+            dialect,
+            level: 0,
+            config_mode: false,
+            subscribed: false,
+            next_scan: None,
+            scans_here: 0,
+            verdict: Verdict::Continue,
+            tx: vec![0u8; 512],
+        }
+    }
+
+    fn booting(&self, now: Instant) -> bool {
+        now.duration_since(self.shared.started) < self.shared.config.startup_delay
+    }
+
+    /// Handles one received frame, appending any answer to `out`.
+    pub(crate) fn on_frame(&mut self, frame: Frame<'_>, now: Instant, out: &mut Vec<u8>) {
+        self.shared.stats.count(|s| s.frames_in += 1);
+        if self.shared.config.faults.silent {
+            return;
+        }
+        let d = frame.dialect();
+        match self.dialect {
+            None => self.dialect = Some(d),
+            Some(own) if own != d => {
+                // A real device does not understand the other dialect: no answer.
+                self.shared.stats.count(|s| s.foreign_dialect_frames += 1);
+                return;
+            }
+            Some(_) => {}
+        }
+        let answer = match Telegram::parse(frame) {
+            Ok(t) => self.answer(&t, now),
+            Err(_) => Reply::Error(SopasError::UnknownColaCommand),
+        };
+        self.write_reply(d, answer, out);
+    }
+
+    fn write_reply(&mut self, d: Dialect, reply: Reply<'_>, out: &mut Vec<u8>) {
+        let n = match reply {
+            Reply::Answer(a) => a.emit(d, &mut self.tx),
+            Reply::Error(e) => {
+                self.shared.stats.count(|s| s.errors_sent += 1);
+                Answer::Error(e).emit(d, &mut self.tx)
+            }
+            Reply::EchoFilter(f) => {
+                TelegramWriter::begin(d, &mut self.tx, CommandType::ReadAnswer, names::ECHO_FILTER)
+                    .and_then(|mut w| {
+                        w.u8(match f {
+                            EchoFilter::First => 0,
+                            EchoFilter::All => 1,
+                            EchoFilter::Last => 2,
+                        })?;
+                        w.finish()
+                    })
+            }
+            Reply::Scan(scan) => {
+                match scan.to_vec(d) {
+                    Ok(v) => out.extend_from_slice(&v),
+                    Err(_) => self.shared.stats.count(|s| s.emit_failures += 1),
+                }
+                return;
+            }
+            Reply::None => return,
+        };
+        match n {
+            Ok(n) => out.extend_from_slice(&self.tx[..n]),
+            Err(_) => self.shared.stats.count(|s| s.emit_failures += 1),
+        }
+    }
+
+    fn answer(&mut self, t: &Telegram<'_>, now: Instant) -> Reply<'s> {
+        let req = match Request::parse(t) {
+            Ok(r) => r,
+            Err(RequestError::Unsupported(CommandType::WriteRequest)) => {
+                return Reply::Error(SopasError::UnknownVariable)
+            }
+            Err(RequestError::Unsupported(CommandType::MethodRequest)) => {
+                return Reply::Error(SopasError::UnknownMethod)
+            }
+            Err(RequestError::Unsupported(_)) | Err(RequestError::Telegram(_)) => {
+                return Reply::Error(SopasError::UnknownColaCommand)
+            }
+            Err(RequestError::Args(e)) => {
+                return Reply::Error(match (t.dialect(), e.kind) {
+                    (_, ArgErrorKind::Truncated) => SopasError::BufferUnderflow,
+                    (_, ArgErrorKind::TrailingData) => SopasError::BufferOverflow,
+                    (Dialect::ColaA, ArgErrorKind::OutOfRange) => SopasError::ColaAValueOverflow,
+                    (Dialect::ColaA, ArgErrorKind::InvalidNumber | ArgErrorKind::BadText) => {
+                        SopasError::ColaAInvalidCharacter
+                    }
+                    _ => SopasError::InvalidData,
+                })
+            }
+        };
+        self.shared.stats.count(|s| s.requests += 1);
+        let booting = self.booting(now);
+        if let Request::Read(name) = req {
+            return self.read(name, booting, now);
+        }
+        if booting {
+            return Reply::Error(SopasError::ServerBusy);
+        }
+        let authorized = self.level >= AccessLevel::AuthorizedClient.level();
+        let mut st = self.shared.settings();
+        match req {
+            Request::SetAccessMode { level, password } => {
+                let ok = [
+                    AccessLevel::Maintenance,
+                    AccessLevel::AuthorizedClient,
+                    AccessLevel::Service,
+                ]
+                .iter()
+                .any(|l| l.level() == level && l.default_password() == password);
+                if ok {
+                    self.level = level;
+                    self.config_mode = true;
+                }
+                Reply::Answer(Answer::AccessMode { accepted: ok })
+            }
+            Request::Subscribe { event, enable } => {
+                if event != names::SCAN_DATA {
+                    return Reply::Error(SopasError::UnknownVariable);
+                }
+                self.subscribed = enable;
+                self.next_scan = None;
+                Reply::Answer(Answer::EventAck {
+                    event: names::SCAN_DATA,
+                    enabled: enable,
+                })
+            }
+            // Everything below changes the device: authorized client or higher only.
+            Request::Read(_) => Reply::None,
+            _ if !authorized => Reply::Error(match req.header().0 {
+                CommandType::WriteRequest => SopasError::WriteAccessDenied,
+                _ => SopasError::AccessDenied,
+            }),
+            Request::SetHostDialect(d) => {
+                st.host_dialect = Some(d);
+                Reply::Answer(Answer::WriteAck(names::HOST_COLA))
+            }
+            Request::SetDo3And4Function(_) => {
+                Reply::Answer(Answer::WriteAck(names::DO3_AND_4_FUNCTION))
+            }
+            Request::SetIncrementSource(_) => {
+                Reply::Answer(Answer::WriteAck(names::INCREMENT_SOURCE))
+            }
+            Request::SetEncoderSetting(_) => {
+                Reply::Answer(Answer::WriteAck(names::ENCODER_SETTING))
+            }
+            Request::SetEncoderResolution(_) => {
+                Reply::Answer(Answer::WriteAck(names::ENCODER_RESOLUTION))
+            }
+            Request::SetOutputRange(r) => {
+                let (lo, hi) = FOV_1E4_DEG;
+                if r.start_1e4_deg < lo || r.stop_1e4_deg > hi || r.start_1e4_deg >= r.stop_1e4_deg
+                {
+                    return Reply::Error(SopasError::LocalConditionFailed);
+                }
+                st.output_range = r;
+                Reply::Answer(Answer::WriteAck(names::OUTPUT_RANGE))
+            }
+            Request::SetScanDataConfig(c) => {
+                st.scan_data = c;
+                Reply::Answer(Answer::WriteAck(names::SCAN_DATA_CONFIG))
+            }
+            Request::SetScanConfig(c) => {
+                let r = check_scan_config(&c);
+                if r.is_ok() {
+                    st.scan_config = c;
+                    self.next_scan = None;
+                }
+                Reply::Answer(Answer::SetScanConfig(r))
+            }
+            Request::SetEchoFilter(f) => {
+                st.echo_filter = f;
+                Reply::Answer(Answer::WriteAck(names::ECHO_FILTER))
+            }
+            Request::StartMeasurement => Reply::Answer(Answer::StartMeasurement { ok: true }),
+            Request::StopMeasurement => Reply::Answer(Answer::StopMeasurement { ok: true }),
+            Request::Run => {
+                self.config_mode = false;
+                Reply::Answer(Answer::Run { ok: true })
+            }
+        }
+    }
+
+    fn read(&mut self, name: &str, booting: bool, now: Instant) -> Reply<'s> {
+        let shared: &'s Shared = self.shared;
+        let id = &shared.config.identity;
+        if name == names::DEVICE_STATE {
+            // Busy while booting; the LMS511 of the capture also answers 0 after login
+            // (configuration mode) until Run.
+            let s = if booting || self.config_mode {
+                DeviceState::Busy
+            } else {
+                DeviceState::Ready
+            };
+            return Reply::Answer(Answer::DeviceState(s));
+        }
+        if booting {
+            return Reply::Error(SopasError::ServerBusy);
+        }
+        let st = self.shared.settings().clone();
+        Reply::Answer(match name {
+            names::FIRMWARE_VERSION => Answer::FirmwareVersion(&id.firmware_version),
+            names::LOCATION_NAME => Answer::LocationName(&id.location_name),
+            names::OPERATING_HOURS => Answer::OperatingHours(id.operating_hours),
+            names::POWER_ON_COUNT => Answer::PowerOnCount(id.power_on_count),
+            names::OUTPUT_RANGE => Answer::OutputRange(st.output_range),
+            names::SCAN_DATA_CONFIG => Answer::ScanDataConfig(st.scan_data),
+            names::SCAN_CONFIG => Answer::ScanConfig(st.scan_config),
+            names::ECHO_FILTER => return Reply::EchoFilter(st.echo_filter),
+            names::SCAN_DATA => {
+                return match self.make_scan(now, CommandType::ReadAnswer) {
+                    Some(s) => Reply::Scan(s),
+                    None => Reply::Error(SopasError::LocalConditionFailed),
+                }
+            }
+            _ => return Reply::Error(SopasError::UnknownVariable),
+        })
+    }
+
+    /// Scans due by `now` (at most one per call; a late loop skips periods instead of
+    /// bursting), with fault injection. Returns whether to drop the connection.
+    pub(crate) fn tick(&mut self, now: Instant, out: &mut Vec<u8>) -> Verdict {
+        let Some(d) = self.dialect else {
+            return self.verdict;
+        };
+        if !self.subscribed
+            || self.config_mode
+            || self.booting(now)
+            || self.shared.config.faults.silent
+        {
+            return self.verdict;
+        }
+        let period = self.period();
+        let due = *self.next_scan.get_or_insert(now);
+        if now < due {
+            return self.verdict;
+        }
+        self.next_scan = Some(if now.duration_since(due) > period {
+            now + period
+        } else {
+            due + period
+        });
+        let Some(scan) = self.make_scan(now, CommandType::Event) else {
+            return self.verdict;
+        };
+        let faults = self.shared.config.faults;
+        let k = self.scans_here + 1;
+        if faults.garbage_every.is_some_and(|n| n > 0 && k % n == 0) {
+            out.extend_from_slice(GARBAGE);
+            self.shared.stats.count(|s| s.garbage_injections += 1);
+        }
+        let start = out.len();
+        self.write_reply(d, Reply::Scan(scan), out);
+        if faults.corrupt_every.is_some_and(|n| n > 0 && k % n == 0) && out.len() > start + 40 {
+            corrupt(d, &mut out[start..]);
+            self.shared.stats.count(|s| s.corrupted_scans += 1);
+        }
+        self.scans_here = k;
+        self.shared.stats.count(|s| s.scans_sent += 1);
+        if let Some(limit) = faults.drop_after_scans {
+            if self.scans_here >= limit {
+                let dropped = self.shared.stats.snapshot().drops;
+                if dropped < faults.max_drops {
+                    self.shared.stats.count(|s| s.drops += 1);
+                    self.verdict = Verdict::Drop;
+                }
+            }
+        }
+        self.verdict
+    }
+
+    fn period(&self) -> Duration {
+        let f = self.shared.settings().scan_config.frequency_1e2_hz.max(1);
+        Duration::from_micros(100_000_000 / u64::from(f))
+    }
+
+    /// The next scan from the source, shaped by `LMDscandatacfg` and restamped.
+    fn make_scan(&mut self, now: Instant, kind: CommandType) -> Option<ScanRepr> {
+        let mut scan = self.shared.next_scan()?;
+        scan.command_type = kind;
+        let mut st = self.shared.settings();
+        let cfg = st.scan_data;
+        let echo_on = |name: &[u8; 5]| {
+            let n = name[4].wrapping_sub(b'0');
+            (1..=5).contains(&n) && cfg.output_channel & (1 << (n - 1)) != 0
+        };
+        let keep = |c: &crate::scan_repr::ChannelRepr| match &c.name[..4] {
+            b"DIST" => echo_on(&c.name),
+            b"RSSI" => cfg.remission && echo_on(&c.name),
+            _ => true,
+        };
+        scan.channels16.retain(keep);
+        scan.channels8.retain(keep);
+        if !cfg.time {
+            scan.time = None;
+        }
+        if self.shared.config.restamp {
+            st.scans_sent += 1;
+            let n = st.scans_sent;
+            let h = &mut scan.header;
+            h.scan_counter = n as u16;
+            h.telegram_counter = n as u16;
+            let t_us = now.duration_since(self.shared.started).as_micros() as u32;
+            h.time_since_startup_us = t_us;
+            h.time_of_transmission_us = t_us.wrapping_add(40_850);
+            h.scan_frequency_1e2_hz = st.scan_config.frequency_1e2_hz;
+            h.device_status = if n == 1 { [1, 0] } else { [0, 0] };
+        }
+        Some(scan)
+    }
+}
+
+/// An answer to write.
+enum Reply<'t> {
+    Answer(Answer<'t>),
+    Error(SopasError),
+    EchoFilter(EchoFilter),
+    Scan(ScanRepr),
+    None,
+}
+
+fn check_scan_config(c: &ScanConfig) -> Result<(), crate::answer::ScanConfigError> {
+    use crate::answer::ScanConfigError as E;
+    let freq_ok = LMS511_SCAN_MODES
+        .iter()
+        .any(|&(f, _)| f == c.frequency_1e2_hz);
+    let pair_ok = LMS511_SCAN_MODES
+        .iter()
+        .any(|&(f, s)| f == c.frequency_1e2_hz && s == c.step_1e4_deg);
+    let step_known = LMS511_SCAN_MODES.iter().any(|&(_, s)| s == c.step_1e4_deg);
+    let (lo, hi) = FOV_1E4_DEG;
+    match (freq_ok, pair_ok, step_known) {
+        (_, true, _) if c.start_1e4_deg >= lo && c.stop_1e4_deg <= hi && c.sectors == 1 => Ok(()),
+        (_, true, _) => Err(E::Area),
+        (true, false, _) => Err(E::Resolution),
+        (false, _, true) => Err(E::Frequency),
+        (false, _, false) => Err(E::FrequencyAndResolution),
+    }
+}
+
+/// Noise between frames: stray start markers, a CoLa-B header claiming 4 GB, broken CoLa-A.
+const GARBAGE: &[u8] = b"\x00\xff\x02\x02\x02\x02\xff\xff\xff\xff\x02noise\x01\x03xx\x02";
+
+/// Damages a frame so the receiver must drop it: the CoLa-B checksum byte, or a control byte
+/// in the middle of a CoLa-A frame.
+fn corrupt(d: Dialect, frame: &mut [u8]) {
+    match d {
+        Dialect::ColaB => {
+            if let Some(last) = frame.last_mut() {
+                *last ^= 0x5a;
+            }
+        }
+        Dialect::ColaA => {
+            let mid = frame.len() / 2;
+            if let Some(b) = frame.get_mut(mid) {
+                *b = 0x01;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lms511_scan_modes_are_checked() {
+        let mut c = ScanConfig {
+            frequency_1e2_hz: 5000,
+            sectors: 1,
+            step_1e4_deg: 3333,
+            start_1e4_deg: -50_000,
+            stop_1e4_deg: 1_850_000,
+        };
+        assert_eq!(check_scan_config(&c), Ok(()));
+        c.step_1e4_deg = 1667;
+        assert_eq!(
+            check_scan_config(&c),
+            Err(crate::answer::ScanConfigError::Resolution)
+        );
+        c.frequency_1e2_hz = 6000;
+        assert_eq!(
+            check_scan_config(&c),
+            Err(crate::answer::ScanConfigError::Frequency)
+        );
+        c.step_1e4_deg = 1234;
+        assert_eq!(
+            check_scan_config(&c),
+            Err(crate::answer::ScanConfigError::FrequencyAndResolution)
+        );
+        c.frequency_1e2_hz = 2500;
+        c.step_1e4_deg = 1667;
+        c.stop_1e4_deg = 2_000_000;
+        assert_eq!(
+            check_scan_config(&c),
+            Err(crate::answer::ScanConfigError::Area)
+        );
+    }
+}
