@@ -13,6 +13,21 @@ use super::{MapHit, MapSegment, RayHit};
 /// Cross products below this (m²) count as a ray parallel to a segment.
 const PARALLEL_EPS: f32 = 1e-12;
 
+/// Squared distance from `p` to segment `s`, m² (no square root: the search compares
+/// squares).
+#[inline]
+pub(crate) fn dist_sq_to_segment(p: Point2, s: &Segment) -> f32 {
+    let d = s.b.sub(s.a);
+    let w = p.sub(s.a);
+    let len2 = d.norm_sq();
+    let t = if len2 > f32::EPSILON {
+        (w.dot(d) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    w.sub(d.scale(t)).norm_sq()
+}
+
 /// Where a ray meets a segment: `(t, u)` with hit `o + t·d = a + u·(b − a)`, if it does
 /// (`t ≥ 0`, `u ∈ [0, 1]`).
 #[inline]
@@ -86,35 +101,46 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
             k_box
         };
         let k_last = k_box.min(k_dist);
-        let mut best: Option<MapHit> = None;
-        let mut best_d = max_distance_m;
+        // Squared distances in the search; one full projection for the winner.
+        let mut best: Option<usize> = None;
+        let mut best_d2 = max_distance_m * max_distance_m;
         for k in k_first..=k_last {
             // Every cell of ring k is at least (k − 1) cells from p.
-            if k >= 1 && (k - 1) as f32 * cs > best_d {
+            let ring_gap = (k - 1).max(0) as f32 * cs;
+            if ring_gap * ring_gap > best_d2 {
                 break;
             }
             Self::for_each_ring_cell(c, k, &b, &mut |cell| {
+                // Skip cells whose box is farther than the best so far.
+                let x0 = cell.ix as f32 * cs;
+                let y0 = cell.iy as f32 * cs;
+                let dx = (x0 - p.x_m).max(p.x_m - (x0 + cs)).max(0.0);
+                let dy = (y0 - p.y_m).max(p.y_m - (y0 + cs)).max(0.0);
+                if dx * dx + dy * dy > best_d2 {
+                    return;
+                }
                 for &i in self.cell_refs(cell) {
                     let Some(ms) = segs.get(usize::from(i)) else {
                         continue;
                     };
-                    let proj = ms.segment.project(p);
+                    let d2 = dist_sq_to_segment(p, &ms.segment);
                     let better = match best {
-                        None => proj.distance_m <= best_d,
-                        Some(_) => proj.distance_m < best_d,
+                        None => d2 <= best_d2,
+                        Some(_) => d2 < best_d2,
                     };
                     if better {
-                        best_d = proj.distance_m;
-                        best = Some(MapHit {
-                            segment: ms.segment,
-                            kind: ms.kind,
-                            projection: proj,
-                        });
+                        best_d2 = d2;
+                        best = Some(usize::from(i));
                     }
                 }
             });
         }
-        best
+        let ms = segs.get(best?)?;
+        Some(MapHit {
+            segment: ms.segment,
+            kind: ms.kind,
+            projection: ms.segment.project(p),
+        })
     }
 
     /// The first segment a ray meets within `max_range_m`.
