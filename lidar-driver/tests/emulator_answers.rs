@@ -1,0 +1,202 @@
+//! The emulator answers the LMS511 start-up dialogue of the capture byte for byte (CoLa-B), the
+//! same typed answers in CoLa-A, `sFA` for what it does not know or what needs a login.
+
+mod session_support;
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::{Duration, Instant};
+
+use lidar_driver::emulator::{Emulator, EmulatorConfig};
+use lidar_driver::{Answer, CommandType, Dialect, Framer, Request, SopasError, Telegram};
+
+use session_support::*;
+
+/// All frames of a raw capture stream.
+fn frames(name: &str) -> Vec<Vec<u8>> {
+    let bytes = std::fs::read(capture(name)).unwrap();
+    let mut f = Framer::new(vec![0u8; 64 * 1024]);
+    let mut out = Vec::new();
+    f.feed(&bytes, |r| out.push(r.unwrap().as_bytes().to_vec()));
+    out
+}
+
+fn kind_of(frame: &[u8]) -> (CommandType, String) {
+    let f = lidar_driver::Frame::new_checked(frame).unwrap();
+    let t = Telegram::parse(f).unwrap();
+    (t.kind(), t.name().to_string())
+}
+
+/// A raw client: sends a frame, returns the next frame that is not a streamed event.
+struct Client {
+    s: TcpStream,
+    framer: Framer<Vec<u8>>,
+    ready: Vec<Vec<u8>>,
+}
+
+impl Client {
+    fn connect(emu: &Emulator) -> Self {
+        let s = TcpStream::connect(emu.addr().unwrap()).unwrap();
+        s.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+        Client {
+            s,
+            framer: Framer::new(vec![0u8; 64 * 1024]),
+            ready: Vec::new(),
+        }
+    }
+
+    fn ask(&mut self, req: &[u8]) -> Vec<u8> {
+        self.s.write_all(req).unwrap();
+        let end = Instant::now() + Duration::from_secs(2);
+        let mut buf = [0u8; 8192];
+        loop {
+            while !self.ready.is_empty() {
+                let f = self.ready.remove(0);
+                if kind_of(&f).0 != CommandType::Event {
+                    return f;
+                }
+            }
+            assert!(Instant::now() < end, "no answer to {:?}", kind_of(req));
+            match self.s.read(&mut buf) {
+                Ok(0) => panic!("emulator closed the connection"),
+                Ok(n) => {
+                    let ready = &mut self.ready;
+                    self.framer
+                        .feed(&buf[..n], |r| ready.push(r.unwrap().as_bytes().to_vec()));
+                }
+                Err(_) => {}
+            }
+        }
+    }
+}
+
+/// The capture's requests paired with the sensor's answers (streamed events left out).
+fn capture_dialogue() -> Vec<(Vec<u8>, Vec<u8>)> {
+    let reqs = frames("lms511_20210302_colab.host_to_sensor.colab.bin");
+    let answers: Vec<Vec<u8>> = frames("lms511_20210302_colab.sensor_to_host.colab.bin")
+        .into_iter()
+        .filter(|f| kind_of(f).0 != CommandType::Event)
+        .collect();
+    assert_eq!(reqs.len(), answers.len());
+    reqs.into_iter().zip(answers).collect()
+}
+
+/// Names the emulated LMS511 knows; the capture also reads field000…029 and the I/O states.
+fn known(name: &str) -> bool {
+    !(name.starts_with("field") || name.starts_with("LID") || name == "LFErec")
+}
+
+#[test]
+fn cola_b_answers_equal_the_lms511_capture() {
+    let emu = Emulator::start(EmulatorConfig::default(), lms511_source()).unwrap();
+    let mut c = Client::connect(&emu);
+    let mut compared = 0;
+    for (req, want) in capture_dialogue() {
+        let (kind, name) = kind_of(&req);
+        let got = c.ask(&req);
+        if known(&name) {
+            assert_eq!(got, want, "{kind} {name}");
+            compared += 1;
+        } else {
+            let f = lidar_driver::Frame::new_checked(&got).unwrap();
+            assert!(
+                matches!(Answer::from_frame(f), Ok(Answer::Error(_))),
+                "{kind} {name} must get sFA"
+            );
+        }
+    }
+    // SetAccessMode, EIHstCola, FirmwareVersion, SCdevicestate, ODoprh, ODpwrc, LocationName,
+    // LMPoutputRange ×3, LMDscandatacfg ×2, LMCstartmeas, Run, sEN LMDscandata.
+    assert_eq!(compared, 15);
+    let st = emu.stop();
+    assert_eq!((st.requests, st.connections), (49, 1), "{st:?}");
+}
+
+#[test]
+fn cola_a_answers_carry_the_same_values() {
+    let emu = Emulator::start(EmulatorConfig::default(), lms511_source()).unwrap();
+    let mut c = Client::connect(&emu);
+    for (req_b, want_b) in capture_dialogue() {
+        let (_, name) = kind_of(&req_b);
+        if !known(&name) {
+            continue;
+        }
+        let r = Request::from_frame(lidar_driver::Frame::new_checked(&req_b).unwrap()).unwrap();
+        let mut a = [0u8; 256];
+        let n = r.emit(Dialect::ColaA, &mut a).unwrap();
+        let got = c.ask(&a[..n]);
+        let got_f = lidar_driver::Frame::new_checked(&got).unwrap();
+        assert_eq!(got_f.dialect(), Dialect::ColaA);
+        assert!(got[1..got.len() - 1]
+            .iter()
+            .all(|b| (0x20..0x7f).contains(b)));
+        let want = Answer::from_frame(lidar_driver::Frame::new_checked(&want_b).unwrap()).unwrap();
+        let got = Answer::from_frame(got_f).unwrap();
+        assert_eq!(got, want, "{name}");
+    }
+}
+
+#[test]
+fn changes_need_a_login_and_unknown_names_are_refused() {
+    let emu = Emulator::start(EmulatorConfig::default(), lms511_source()).unwrap();
+    let mut c = Client::connect(&emu);
+    let mut ask = |r: Request<'_>| {
+        let mut b = [0u8; 256];
+        let n = r.emit(Dialect::ColaB, &mut b).unwrap();
+        let got = c.ask(&b[..n]);
+        match Answer::from_frame(lidar_driver::Frame::new_checked(&got).unwrap()).unwrap() {
+            Answer::Error(e) => Some(e),
+            _ => None,
+        }
+    };
+    assert_eq!(
+        ask(Request::SetEchoFilter(lidar_driver::EchoFilter::All)),
+        Some(SopasError::WriteAccessDenied)
+    );
+    assert_eq!(
+        ask(Request::StartMeasurement),
+        Some(SopasError::AccessDenied)
+    );
+    assert_eq!(
+        ask(Request::Read("NoSuchVar")),
+        Some(SopasError::UnknownVariable)
+    );
+    assert_eq!(ask(Request::Read("FirmwareVersion")), None);
+    assert_eq!(
+        ask(Request::login(lidar_driver::AccessLevel::AuthorizedClient)),
+        None
+    );
+    assert_eq!(
+        ask(Request::SetEchoFilter(lidar_driver::EchoFilter::All)),
+        None
+    );
+    assert_eq!(ask(Request::StartMeasurement), None);
+}
+
+#[test]
+fn busy_during_the_startup_delay() {
+    let emu = Emulator::start(
+        EmulatorConfig {
+            startup_delay: Duration::from_millis(300),
+            ..EmulatorConfig::default()
+        },
+        lms511_source(),
+    )
+    .unwrap();
+    let mut c = Client::connect(&emu);
+    let state = |c: &mut Client| {
+        let mut b = [0u8; 64];
+        let n = Request::Read("SCdevicestate")
+            .emit(Dialect::ColaA, &mut b)
+            .unwrap();
+        c.ask(&b[..n])
+    };
+    assert_eq!(state(&mut c), b"\x02sRA SCdevicestate 0\x03");
+    let mut b = [0u8; 64];
+    let n = Request::login(lidar_driver::AccessLevel::AuthorizedClient)
+        .emit(Dialect::ColaA, &mut b)
+        .unwrap();
+    assert_eq!(c.ask(&b[..n]), b"\x02sFA D\x03", "server busy (13)");
+    std::thread::sleep(Duration::from_millis(350));
+    assert_eq!(state(&mut c), b"\x02sRA SCdevicestate 1\x03");
+}
