@@ -102,13 +102,15 @@ pub struct StoredMap<
 
 /// The default capacity, sized for a 1 km tunnel: walls sampled every ~1–2 m (up to ~3 000
 /// wall segments in all) with a landmark every ~7–10 m on both walls (up to 320 landmarks,
-/// P1 adds 2 segments each, P3 10, F-shapes ≤ 15). RAM: about 140 KiB
-/// (segments 4 096 × 20 B, landmarks 320 × 80 B, cells 2 048 × 8 B, refs 8 192 × 2 B);
-/// its serialised form is ~30 KiB of flash (see the serialisation tests).
+/// P1 adds 2 segments each, P3 10, F-shapes ≤ 15). RAM: 140 376 bytes (137 KiB:
+/// segments 4 096 × 20 B, landmarks 320 × 80 B, cells 2 048 × 8 B, refs 8 192 × 2 B;
+/// checked by a unit test). A straight 1 km tunnel with walls every 1 m and 213 P1
+/// landmarks uses 2 426 segments, 1 004 cells and 4 481 refs, and its file is 20 728 bytes of
+/// flash (checked by the serialisation tests: ≤ 64 KiB).
 pub type TunnelMap = StoredMap<4096, 320, 2048, 8192>;
 
-/// A host-side capacity for long or rough simulated tunnels (32 768 segments): about
-/// 1.3 MiB. Box it, and construct it in release builds or on a thread with a large stack.
+/// A host-side capacity for long or rough simulated tunnels (32 768 segments): 1.28 MiB
+/// (1 343 576 bytes). Box it, and construct it in release builds or on a thread with a large stack.
 pub type HostMap = StoredMap<32768, 2048, 32768, 131072>;
 
 impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CELL_REFS: usize>
@@ -732,6 +734,18 @@ mod tests {
     }
 
     extern crate std;
+
+    #[test]
+    fn default_capacity_memory_is_as_documented() {
+        let bytes = core::mem::size_of::<TunnelMap>();
+        std::println!(
+            "TunnelMap: {bytes} bytes of RAM; HostMap: {} bytes",
+            core::mem::size_of::<HostMap>()
+        );
+        assert_eq!(core::mem::size_of::<MapSegment>(), 20);
+        assert!(core::mem::size_of::<MapLandmark>() <= 80);
+        assert!(bytes <= 160 * 1024, "{bytes}");
+    }
 
     /// A wiggly closed-ish map with landmarks, for comparing against brute force.
     fn random_map(rng: &mut Pcg32) -> SmallMap {
