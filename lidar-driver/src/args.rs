@@ -344,22 +344,68 @@ impl<'a> ArgReader<'a> {
             Dialect::ColaA => {
                 let start = self.pos;
                 let max = (1u64 << (bytes * 8)) - 1;
-                // Fast path for pure hex tokens; falls back to the general parser.
+                let text = self.rest();
+                let mut i = 0usize;
+                // One pass: skip separators, accumulate hex digits; a token with any other
+                // character (a signed decimal) goes through the general parser.
                 for _ in 0..n {
-                    let at = *self;
-                    let tok = self.token()?;
-                    let v = hex_fast(tok).or_else(|| parse_number(tok).map(|(v, _)| v));
-                    match v {
-                        Some(v) if v >= 0 && v as u64 <= max => {}
-                        Some(_) => return Err(at.err_at_token(ArgErrorKind::OutOfRange)),
-                        None => return Err(at.err_at_token(ArgErrorKind::InvalidNumber)),
+                    while text.get(i) == Some(&b' ') {
+                        i += 1;
+                    }
+                    let tok_start = i;
+                    let mut v: u64 = 0;
+                    let mut plain_hex = true;
+                    while let Some(&c) = text.get(i) {
+                        if c == b' ' {
+                            break;
+                        }
+                        let d = HEX_DIGIT[c as usize];
+                        plain_hex &= d != 0xff;
+                        v = (v << 4) | (d & 0x0f) as u64;
+                        i += 1;
+                    }
+                    let tok = text.get(tok_start..i).unwrap_or(&[]);
+                    let err = |kind| ArgError {
+                        offset: self.base + start + tok_start,
+                        kind,
+                    };
+                    if tok.is_empty() {
+                        return Err(err(ArgErrorKind::Truncated));
+                    }
+                    let v = if plain_hex && tok.len() <= 15 {
+                        v as i64
+                    } else {
+                        parse_number(tok)
+                            .map(|(v, _)| v)
+                            .ok_or(err(ArgErrorKind::InvalidNumber))?
+                    };
+                    if v < 0 || v as u64 > max {
+                        return Err(err(ArgErrorKind::OutOfRange));
                     }
                 }
+                self.pos += i;
                 Ok(self.buf.get(start..self.pos).unwrap_or(&[]))
             }
         }
     }
 }
+
+/// Hex digit value of each byte, 0xff for non-digits.
+static HEX_DIGIT: [u8; 256] = {
+    let mut t = [0xffu8; 256];
+    let mut i = 0;
+    while i < 10 {
+        t[b'0' as usize + i] = i as u8;
+        i += 1;
+    }
+    let mut i = 0;
+    while i < 6 {
+        t[b'A' as usize + i] = 10 + i as u8;
+        t[b'a' as usize + i] = 10 + i as u8;
+        i += 1;
+    }
+    t
+};
 
 fn sign_extend(u: u64, bits: usize) -> i64 {
     let shift = 64 - bits;
@@ -374,12 +420,10 @@ pub(crate) fn hex_fast(tok: &[u8]) -> Option<i64> {
     }
     let mut v: i64 = 0;
     for &c in tok {
-        let d = match c {
-            b'0'..=b'9' => c - b'0',
-            b'A'..=b'F' => c - b'A' + 10,
-            b'a'..=b'f' => c - b'a' + 10,
-            _ => return None,
-        };
+        let d = HEX_DIGIT[c as usize];
+        if d == 0xff {
+            return None;
+        }
         v = (v << 4) | d as i64;
     }
     Some(v)
@@ -565,6 +609,52 @@ impl<'a> TelegramWriter<'a> {
         }
         Ok(self)
     }
+    /// Many u16 values (a channel's data) in one pass.
+    pub fn u16_values(&mut self, values: &[u16]) -> Result<&mut Self, EmitError> {
+        match self.dialect {
+            Dialect::ColaB => {
+                if !values.is_empty() {
+                    self.sep()?;
+                    self.args += values.len() - 1;
+                }
+                let end = self.pos + 2 * values.len();
+                let dst = self
+                    .buf
+                    .get_mut(self.pos..end)
+                    .ok_or(EmitError::BufferTooSmall { needed: end })?;
+                for (d, v) in dst.chunks_exact_mut(2).zip(values) {
+                    d.copy_from_slice(&v.to_be_bytes());
+                }
+                self.pos = end;
+            }
+            Dialect::ColaA => {
+                for &v in values {
+                    self.u16(v)?;
+                }
+            }
+        }
+        Ok(self)
+    }
+
+    /// Many u8 values (a channel's data) in one pass.
+    pub fn u8_values(&mut self, values: &[u8]) -> Result<&mut Self, EmitError> {
+        match self.dialect {
+            Dialect::ColaB => {
+                if !values.is_empty() {
+                    self.sep()?;
+                    self.args += values.len() - 1;
+                }
+                self.put(values)?;
+            }
+            Dialect::ColaA => {
+                for &v in values {
+                    self.u8(v)?;
+                }
+            }
+        }
+        Ok(self)
+    }
+
     /// 0/1 flag as u8.
     pub fn flag_u8(&mut self, v: bool) -> Result<&mut Self, EmitError> {
         self.u8(v as u8)

@@ -53,14 +53,15 @@ impl ChannelRepr {
             .u16(n)?;
         match bits {
             ChannelBits::U16 => {
-                for &v in &self.values {
-                    w.u16(v)?;
-                }
+                w.u16_values(&self.values)?;
             }
             ChannelBits::U8 => {
-                for &v in &self.values {
-                    w.u8(u8::try_from(v).map_err(|_| EmitError::TooLong)?)?;
-                }
+                let bytes: Vec<u8> = self
+                    .values
+                    .iter()
+                    .map(|&v| u8::try_from(v).map_err(|_| EmitError::TooLong))
+                    .collect::<Result<_, _>>()?;
+                w.u8_values(&bytes)?;
             }
         }
         Ok(())

@@ -218,6 +218,28 @@ impl Iterator for ChannelValues<'_> {
     fn size_hint(&self) -> (usize, Option<usize>) {
         (self.left, Some(self.left))
     }
+
+    /// Dispatches on the representation once, not per value (fast `sum`, `for_each`, …).
+    fn fold<Acc, F: FnMut(Acc, u16) -> Acc>(self, init: Acc, mut f: F) -> Acc {
+        let n = self.left;
+        match self.inner {
+            Inner::B16(c) => c
+                .take(n)
+                .fold(init, |a, b| f(a, u16::from_be_bytes([b[0], b[1]]))),
+            Inner::B8(i) => i.take(n).fold(init, |a, &b| f(a, b as u16)),
+            Inner::A(text) => {
+                let mut acc = init;
+                let rest = ChannelValues {
+                    inner: Inner::A(text),
+                    left: n,
+                };
+                for v in rest {
+                    acc = f(acc, v);
+                }
+                acc
+            }
+        }
+    }
 }
 
 impl ExactSizeIterator for ChannelValues<'_> {}
