@@ -469,4 +469,26 @@ mod tests {
         assert!(scan.is_empty());
         assert_eq!(scan.dropped().non_finite, 2);
     }
+
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_raw_values_never_panic_and_are_all_accounted_for(
+            raw in proptest::collection::vec(proptest::prelude::any::<u16>(), 0..1300),
+            scale in proptest::prelude::any::<f32>(),
+            offset in proptest::prelude::any::<f32>(),
+            start in proptest::prelude::any::<i32>(),
+            step in proptest::prelude::any::<u32>(),
+        ) {
+            let setup = SensorSetup {
+                geometry: ScanGeometry::from_telegram_units(start, step, 0.5, 80.0),
+                mounting: Pose2::new(0.3, -0.1, 0.2),
+            };
+            let scan = Scan::from_raw_mm(&setup, &raw, scale, offset);
+            proptest::prop_assert!(scan.len() <= LMS511_MAX_BEAMS);
+            proptest::prop_assert_eq!(scan.dropped().total() as usize + scan.len(), raw.len());
+            for p in scan.points() {
+                proptest::prop_assert!(p.vehicle.is_finite() && (0.5..=80.0).contains(&p.range_m));
+            }
+        }
+    }
 }
