@@ -741,3 +741,6 @@ impl Core {
         })
     }
 }
+
+#[cfg(test)]
+mod tests;

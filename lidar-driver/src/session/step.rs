@@ -218,7 +218,7 @@ mod tests {
             ..SessionConfig::default()
         };
         let s = sequence(&cfg);
-        assert_eq!(s.len(), 15);
+        assert_eq!(s.len(), 14);
         assert_eq!(
             Step::SetScanConfig.expected_answer(&cfg),
             (CommandType::MethodAnswer, "mLMPsetscancfg")

@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use std::path::PathBuf;
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use lidar_driver::clock::StdClock;
@@ -62,11 +63,13 @@ pub fn run<B: AsRef<[u8]> + AsMut<[u8]>, T: Transport>(
     want_scans: usize,
     limit: Duration,
 ) -> Seen {
-    let clock = StdClock::new();
+    // One clock for the whole test process: a session's deadlines must stay in one time base.
+    static CLOCK: OnceLock<StdClock> = OnceLock::new();
+    let clock = CLOCK.get_or_init(StdClock::new);
     let end = Instant::now() + limit;
     let mut seen = Seen::default();
     while Instant::now() < end && seen.scans.len() < want_scans {
-        match session.poll(link, &clock) {
+        match session.poll(link, clock) {
             Event::Idle => {}
             Event::Scan(s) => {
                 let d: Vec<u16> = s.dist1().map(|c| c.values().collect()).unwrap_or_default();
