@@ -110,7 +110,10 @@ pub struct StoredMap<
 pub type TunnelMap = StoredMap<4096, 320, 2048, 8192>;
 
 /// A host-side capacity for long or rough simulated tunnels (32 768 segments): 1.28 MiB
-/// (1 343 576 bytes). Box it, and construct it in release builds or on a thread with a large stack.
+/// (1 343 576 bytes). Box it (`Box::new(HostMap::new())`), build it in place
+/// ([`StoredMap::builder_from_iters`], [`StoredMap::load_from_bytes`]); debug builds move
+/// the value through the stack first, so do that on the main thread (8 MiB) or on a thread
+/// spawned with a larger stack (test threads have 2 MiB; see `tests/map_host_capacity.rs`).
 pub type HostMap = StoredMap<32768, 2048, 32768, 131072>;
 
 impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CELL_REFS: usize>
