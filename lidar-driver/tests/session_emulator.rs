@@ -403,3 +403,34 @@ fn recovers_from_a_sensor_power_cycle() {
     assert_eq!(session.stats().streams_started, 2);
     drop(emu);
 }
+
+#[test]
+fn switches_a_cola_a_sensor_to_cola_b_with_a_reconnect() {
+    let emu = Emulator::start(
+        EmulatorConfig {
+            dialect: DialectMode::Only(Dialect::ColaA),
+            ..EmulatorConfig::default()
+        },
+        lms511_source(),
+    )
+    .unwrap();
+    let mut link = link_to(&emu);
+    let cfg = SessionConfig {
+        first_dialect: Dialect::ColaA,
+        switch_dialect: Some(Dialect::ColaB),
+        ..fast_config()
+    };
+    let mut session = Session::new(vec![0u8; 16 * 1024], cfg);
+    let seen = run(&mut session, &mut link, 5, Duration::from_secs(10));
+    assert_eq!(seen.scans.len(), 5, "{:#?}", seen.log);
+    let log = seen.log.join("\n");
+    assert!(log.contains("DialectSwitched(ColaB)"), "{log}");
+    assert_eq!(session.dialect(), Some(Dialect::ColaB));
+    assert_eq!(session.stats().failures, 0, "a switch is not a failure");
+    assert_eq!(
+        session.framer_stats().frames_cola_a,
+        2,
+        "probe and login answers"
+    );
+    drop(emu);
+}

@@ -42,6 +42,11 @@ pub struct SessionConfig {
     /// Dialect tried first; the other one is tried when the sensor does not answer. After a
     /// detection the detected dialect is tried first on re-connects.
     pub first_dialect: Dialect,
+    /// Make the sensor speak this dialect: if it answers in the other one, the session writes
+    /// `sWN EIHstCola` after login and re-connects (the switch takes effect on a new
+    /// connection). Tried once per [`super::Session`] (until `restart`); `None` = use whatever
+    /// the sensor speaks.
+    pub switch_dialect: Option<Dialect>,
     /// `SetAccessMode` level (configuration needs [`AccessLevel::AuthorizedClient`]).
     pub access_level: AccessLevel,
     /// Password hash; `None` = the level's SICK default.
@@ -82,6 +87,7 @@ impl Default for SessionConfig {
     fn default() -> Self {
         SessionConfig {
             first_dialect: Dialect::ColaB,
+            switch_dialect: None,
             access_level: AccessLevel::AuthorizedClient,
             password: None,
             output_range: None,

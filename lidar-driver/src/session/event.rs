@@ -48,6 +48,8 @@ pub enum Event<'a> {
     Probing(Dialect),
     /// The sensor answered in this dialect; the session speaks it from now on.
     DialectDetected(Dialect),
+    /// The sensor accepted `sWN EIHstCola`: the session re-connects and speaks this dialect.
+    DialectSwitched(Dialect),
     /// The device answered `SCdevicestate` busy or error: the session polls it again until the
     /// ready time-out.
     DeviceNotReady {

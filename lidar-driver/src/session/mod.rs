@@ -5,7 +5,8 @@
 //! Disconnected ──connect──▶ Probe(dialect) ──no answer──▶ Probe(other dialect) ──no answer──▶ fail
 //!                               │ SCdevicestate busy/error ──▶ WaitReady (poll until ready / time-out)
 //!                               ▼ ready
-//!   Login → FirmwareVersion → SCdevicestate → LocationName → [sWN LMPoutputRange] → LMPoutputRange
+//!   Login [→ sWN EIHstCola → re-connect, if switch_dialect asks for the other dialect]
+//!   → FirmwareVersion → SCdevicestate → LocationName → [sWN LMPoutputRange] → LMPoutputRange
 //!   → sWN LMDscandatacfg → LMDscandatacfg → [mLMPsetscancfg → LMPscancfg] → [FREchoFilter]
 //!   → LMCstartmeas → Run → sEN LMDscandata 1 ──▶ Streaming ──no scan for scan_ms──▶ fail
 //! fail ──▶ close, wait reconnect_delay_ms ──▶ Disconnected (or Failed after max_failed_attempts)
@@ -127,6 +128,7 @@ struct Core {
     state: State,
     dialect: Dialect,
     detected: bool,
+    switch_tried: bool,
     stats: SessionStats,
     failed_attempts: u32,
     clear_framer: bool,
@@ -144,6 +146,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
                 state: State::Disconnected { retry_at_ms: 0 },
                 dialect: cfg.first_dialect,
                 detected: false,
+                switch_tried: false,
                 stats: SessionStats::default(),
                 failed_attempts: 0,
                 clear_framer: false,
@@ -184,6 +187,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
     pub fn restart(&mut self) {
         self.core.state = State::Disconnected { retry_at_ms: 0 };
         self.core.failed_attempts = 0;
+        self.core.switch_tried = false;
         self.core.pending = None;
         self.framer.clear();
     }
@@ -661,6 +665,24 @@ impl Core {
             Ok(ev) => ev,
             Err(e) => return self.fail(io, now, e),
         };
+        if step == Step::SwitchDialect {
+            // Effective on a new connection: re-connect now, probe the new dialect first.
+            let to = self.cfg.switch_dialect.unwrap_or(self.dialect);
+            io.close();
+            self.clear_framer = true;
+            self.dialect = to;
+            self.detected = false;
+            self.state = State::Disconnected { retry_at_ms: now };
+            return Event::DialectSwitched(to);
+        }
+        let switch = self.cfg.switch_dialect.filter(|&d| d != self.dialect);
+        if step == Step::Login && switch.is_some() && !self.switch_tried {
+            self.switch_tried = true;
+            return match self.start_step(io, now, Step::SwitchDialect) {
+                Ok(()) => ev,
+                Err(fail) => fail,
+            };
+        }
         match step.next(&self.cfg) {
             Some(next) => {
                 if let Err(ev) = self.start_step(io, now, next) {

@@ -18,6 +18,9 @@ pub enum Step {
     WaitReady,
     /// `sMN SetAccessMode level password`.
     Login,
+    /// `sWN EIHstCola` to the configured dialect, then re-connect (only when the sensor speaks
+    /// the other one and [`SessionConfig::switch_dialect`] asks for it).
+    SwitchDialect,
     /// `sRN FirmwareVersion`.
     ReadFirmwareVersion,
     /// `sRN SCdevicestate` after login (busy is normal here: configuration mode).
@@ -62,6 +65,9 @@ impl Step {
                     .password
                     .unwrap_or_else(|| cfg.access_level.default_password()),
             },
+            Step::SwitchDialect => {
+                Request::SetHostDialect(cfg.switch_dialect.unwrap_or(cfg.first_dialect))
+            }
             Step::ReadFirmwareVersion => Request::Read(names::FIRMWARE_VERSION),
             Step::ReadLocationName => Request::Read(names::LOCATION_NAME),
             Step::WriteOutputRange => match cfg.output_range {
@@ -119,7 +125,7 @@ impl Step {
     fn successor(self) -> Option<Step> {
         Some(match self {
             Step::Probe | Step::WaitReady => Step::Login,
-            Step::Login => Step::ReadFirmwareVersion,
+            Step::Login | Step::SwitchDialect => Step::ReadFirmwareVersion,
             Step::ReadFirmwareVersion => Step::ReadDeviceState,
             Step::ReadDeviceState => Step::ReadLocationName,
             Step::ReadLocationName => Step::WriteOutputRange,
@@ -142,6 +148,7 @@ impl Step {
             Step::Probe => "dialect probe (sRN SCdevicestate)",
             Step::WaitReady => "waiting for the device to become ready (sRN SCdevicestate)",
             Step::Login => "login (sMN SetAccessMode)",
+            Step::SwitchDialect => "switching the sensor's dialect (sWN EIHstCola)",
             Step::ReadFirmwareVersion => "reading FirmwareVersion",
             Step::ReadDeviceState => "reading SCdevicestate",
             Step::ReadLocationName => "reading LocationName",
