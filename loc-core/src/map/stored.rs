@@ -434,6 +434,11 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     }
 }
 
+/// Queries go through the sparse grid: `nearest` searches rings of cells outwards from the
+/// query point and stops once no closer segment can exist; `raycast` walks the cells along
+/// the ray (DDA) and stops at the first cell whose exit lies beyond the best hit; both are
+/// clipped to the map's bounding box. A query point more than 30 000 cells from the origin
+/// (60 km with 2 m cells) gets `None` from `nearest`, whatever the distance allowed.
 impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CELL_REFS: usize>
     MapQuery for StoredMap<SEGMENTS, LANDMARKS, CELLS, CELL_REFS>
 {
