@@ -429,8 +429,8 @@ fn switches_a_cola_a_sensor_to_cola_b_with_a_reconnect() {
     assert_eq!(session.stats().failures, 0, "a switch is not a failure");
     assert_eq!(
         session.framer_stats().frames_cola_a,
-        2,
-        "probe and login answers"
+        3,
+        "probe, login and sWA EIHstCola answers"
     );
     drop(emu);
 }
