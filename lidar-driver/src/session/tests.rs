@@ -438,3 +438,108 @@ fn no_scan_within_the_scan_timeout_reconnects() {
     ));
     assert_eq!(s.phase(), Phase::Disconnected);
 }
+
+mod stream_props {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The first `n` scans of the LMS511 capture's sensor stream, as CoLa-B frames.
+    fn recorded_scans(n: usize) -> Vec<Vec<u8>> {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shared/captures/lms511_20210302_colab.sensor_to_host.colab.bin"
+        );
+        let bytes = std::fs::read(path).expect("capture");
+        let mut f = Framer::new(vec![0u8; 64 * 1024]);
+        let mut out = Vec::new();
+        f.feed(&bytes, |r| {
+            let fr = r.expect("clean capture");
+            if fr.payload().starts_with(b"sSN LMDscandata ") {
+                out.push(fr.as_bytes().to_vec());
+            }
+        });
+        out.truncate(n);
+        out
+    }
+
+    fn streaming_session(io: &mut Mock, clock: &Cell<u64>) -> Session<Vec<u8>> {
+        let mut s = Session::new(vec![0u8; 16 * 1024], cfg());
+        pump(&mut s, io, clock, |r| Some(ok_answer(r)));
+        assert_eq!(s.phase(), Phase::Streaming);
+        s
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+
+        /// Scans interleaved with garbage, late answers and damaged scans, cut into arbitrary
+        /// chunks: every intact scan arrives, in order, and the stream never stalls or
+        /// re-connects.
+        #[test]
+        fn intact_scans_always_arrive(
+            seed_chunks in proptest::collection::vec(1usize..6000, 1..40),
+            noise in proptest::collection::vec(
+                (0usize..4, proptest::collection::vec(
+                    prop_oneof![Just(2u8), Just(3u8), any::<u8>(), 0x20u8..0x7f], 0..40)),
+                12),
+        ) {
+            let scans = recorded_scans(12);
+            let clock = Cell::new(0);
+            let mut io = Mock::default();
+            let mut s = streaming_session(&mut io, &clock);
+            let mut stream = Vec::new();
+            let mut expected = Vec::new();
+            for (i, (scan, (what, junk))) in scans.iter().zip(&noise).enumerate() {
+                match what {
+                    0 => stream.extend_from_slice(junk),
+                    1 => {
+                        let mut b = [0u8; 64];
+                        let n = Answer::OperatingHours(i as u32).emit(Dialect::ColaB, &mut b).unwrap();
+                        stream.extend_from_slice(&b[..n]);
+                    }
+                    2 => {
+                        // A damaged copy of the scan first: dropped alone.
+                        let mut bad = scan.clone();
+                        let k = 30 + junk.len() * 7 % (bad.len() - 31);
+                        bad[k] ^= 0x40;
+                        stream.extend_from_slice(&bad);
+                    }
+                    _ => {}
+                }
+                stream.extend_from_slice(scan);
+                expected.push(u16::from_be_bytes([scan[36], scan[37]]));
+            }
+            let mut got = Vec::new();
+            let mut rest = &stream[..];
+            let mut sizes = seed_chunks.iter().cycle();
+            let c = || clock.get();
+            for _ in 0..100_000 {
+                if rest.is_empty() && io.rx.is_empty() {
+                    // Drain what the framer still holds.
+                    let mut idle = 0;
+                    while idle < 3 {
+                        match s.poll(&mut io, &c) {
+                            Event::Idle => idle += 1,
+                            Event::Scan(sc) => got.push(sc.header.scan_counter),
+                            Event::Reconnecting { error, .. } => prop_assert!(false, "{error}"),
+                            _ => {}
+                        }
+                    }
+                    break;
+                }
+                if io.rx.is_empty() {
+                    let n = (*sizes.next().unwrap()).min(rest.len());
+                    io.rx.extend(&rest[..n]);
+                    rest = &rest[n..];
+                }
+                match s.poll(&mut io, &c) {
+                    Event::Scan(sc) => got.push(sc.header.scan_counter),
+                    Event::Reconnecting { error, .. } => prop_assert!(false, "{error}"),
+                    _ => {}
+                }
+            }
+            prop_assert_eq!(got, expected);
+            prop_assert_eq!(s.stats().failures, 0);
+        }
+    }
+}
