@@ -1,68 +1,116 @@
-//! "Recording" of the replay data on the host at build time: synthetic LMS511 scans (raw
-//! u16 millimetre ranges, exactly what the driver hands over) along a tunnel, the true poses
-//! and the odometry between scans.
+//! "Recording" of the replay data on the host at build time, with loc-core's test kit: a
+//! straight 5 m tunnel with the paper's P1 triangular landmarks, its stored map serialised
+//! exactly as it is flashed, and LMS511 scans (1141 beams, 10 mm noise) along a drive
+//! through it, as the raw u16 millimetre ranges the driver hands over, with the true poses
+//! and a 2 %-scale-error odometry between scans.
 //!
-//! Written into OUT_DIR and embedded with `include_bytes!` / `include!` by `src/recorded.rs`.
+//! Written into OUT_DIR (`map.bin`, `scans_mm.bin`, `recording.rs`) and embedded by
+//! `src/recorded.rs`.
 
 use std::fmt::Write as _;
 use std::fs;
 use std::path::Path;
 
-/// Beams per LMS511 scan at 0.1667°.
-const BEAMS: usize = 1141;
-/// Scans recorded.
-const SCANS: usize = 20;
-/// Vehicle travel between scans, metres (10 m/s at 25 Hz).
-const STEP_M: f32 = 0.4;
-/// Half width of the straight tunnel, metres.
-const HALF_WIDTH_M: f32 = 2.5;
+use loc_core::filter::OdometryIncrement;
+use loc_core::geometry::Pose2;
+use loc_core::landmark::LandmarkModel;
+use loc_core::map::TunnelMap;
+use loc_core::scan::{SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 
-/// Range in metres along a vehicle-frame beam at `angle_rad` from `(0, y0_m)` with heading
-/// `heading_rad` to the walls `y = ±HALF_WIDTH_M`; 0 when the beam never meets a wall within
-/// 80 m (no echo).
-fn straight_tunnel_range_m(y0_m: f32, heading_rad: f32, angle_rad: f32) -> f32 {
-    let a = heading_rad + angle_rad;
-    let s = a.sin();
-    let r = if s > 1e-6 {
-        (HALF_WIDTH_M - y0_m) / s
-    } else if s < -1e-6 {
-        (-HALF_WIDTH_M - y0_m) / s
-    } else {
-        0.0
-    };
-    if r > 80.0 {
-        0.0
-    } else {
-        r
-    }
+/// Tunnel length, metres.
+const TUNNEL_LENGTH_M: f32 = 120.0;
+/// Seed of the landmark spacing draws.
+const LAYOUT_SEED: u64 = 7;
+/// Seed of the range noise.
+const NOISE_SEED: u64 = 11;
+/// Scans recorded (1.6 s at 25 Hz).
+const SCANS: usize = 40;
+/// Chainage of the first scan, metres.
+const START_S_M: f32 = 20.0;
+/// Travel between scans, metres (10 m/s at 25 Hz).
+const STEP_M: f32 = 0.4;
+/// Odometry scale error (a skid-steer loader drifts 1–5 % of distance).
+const ODOMETRY_SCALE: f32 = 1.02;
+
+/// The true pose at scan `k`: along the centre line, weaving up to 0.4 m sideways, heading
+/// a few degrees off the tunnel axis.
+fn true_pose(spec: &TunnelSpec, k: usize) -> Pose2 {
+    let s = START_S_M + k as f32 * STEP_M;
+    let lateral_m = 0.4 * (0.15 * k as f32).sin();
+    let centre = spec.centre_pose(s, lateral_m);
+    Pose2::new(
+        centre.x_m,
+        centre.y_m,
+        centre.theta_rad + 0.04 * (0.1 * k as f32).cos(),
+    )
 }
 
-/// Writes `scans_mm.bin` (SCANS × BEAMS little-endian u16, mm) and `recording.rs` (counts,
-/// true poses, odometry) into `out`.
+/// Writes the recording into `out`.
 pub fn write_recordings(out: &Path) {
-    let mut raw = Vec::with_capacity(SCANS * BEAMS * 2);
+    let spec = TunnelSpec::straight(TUNNEL_LENGTH_M).with_landmarks(LandmarkLayout::paper(
+        LandmarkModel::P1Triangle,
+        LAYOUT_SEED,
+    ));
+    let mut map = Box::new(TunnelMap::new());
+    spec.build_into(&mut map)
+        .expect("test kit tunnel fits the firmware's TunnelMap");
+    let mut map_bytes = vec![0u8; map.serialized_len()];
+    let n = map.to_slice(&mut map_bytes).expect("map serialises");
+    map_bytes.truncate(n);
+    fs::write(out.join("map.bin"), &map_bytes).expect("write map.bin");
+
+    let setup = SensorSetup::lms511_forward(0.0, 0.0);
+    let mut sim = ScanSimulator::new(NOISE_SEED);
+    let mut ranges_m = [0.0f32; LMS511_MAX_BEAMS];
+    let mut raw = Vec::with_capacity(SCANS * LMS511_MAX_BEAMS * 2);
     let mut truth = String::new();
-    let start_rad = (-5.0f32).to_radians();
-    let step_rad = (0.1667f32).to_radians();
+    let mut odometry = String::new();
+    let mut previous: Option<Pose2> = None;
     for k in 0..SCANS {
-        let x_m = 2.0 + k as f32 * STEP_M;
-        let y_m = 0.3 * (k as f32 * 0.3).sin();
-        let theta_rad = 0.02 * (k as f32 * 0.2).cos();
-        // The LMS511 looks forward: its 90° beam along the vehicle's x axis.
-        for i in 0..BEAMS {
-            let beam_vehicle_rad = start_rad + i as f32 * step_rad - core::f32::consts::FRAC_PI_2;
-            let r_m = straight_tunnel_range_m(y_m, theta_rad, beam_vehicle_rad);
+        let pose = true_pose(&spec, k);
+        sim.simulate(&*map, &pose, &setup, &mut ranges_m);
+        for r_m in ranges_m {
+            // What the LMS511 reports: whole millimetres, 0 = no echo.
             let mm = (r_m * 1000.0).round().clamp(0.0, 65535.0) as u16;
             raw.extend_from_slice(&mm.to_le_bytes());
         }
-        writeln!(truth, "    [{x_m:?}, {y_m:?}, {theta_rad:?}],").expect("write to String");
+        writeln!(
+            truth,
+            "    [{:?}, {:?}, {:?}],",
+            pose.x_m, pose.y_m, pose.theta_rad
+        )
+        .unwrap();
+        let inc = previous.map_or(
+            OdometryIncrement {
+                dx_m: 0.0,
+                dy_m: 0.0,
+                dtheta_rad: 0.0,
+            },
+            |p| OdometryIncrement::between(&p, &pose),
+        );
+        writeln!(
+            odometry,
+            "    [{:?}, {:?}, {:?}],",
+            inc.dx_m * ODOMETRY_SCALE,
+            inc.dy_m * ODOMETRY_SCALE,
+            inc.dtheta_rad
+        )
+        .unwrap();
+        previous = Some(pose);
     }
     fs::write(out.join("scans_mm.bin"), raw).expect("write scans_mm.bin");
+    let landmarks = map.landmarks().len();
     let src = format!(
         "/// Scans in the recording.\npub const SCAN_COUNT: usize = {SCANS};\n\
-         /// Beams per scan.\npub const BEAMS_PER_SCAN: usize = {BEAMS};\n\
+         /// Beams per scan.\npub const BEAMS_PER_SCAN: usize = {LMS511_MAX_BEAMS};\n\
+         /// Landmarks in the recorded map.\npub const MAP_LANDMARKS: usize = {landmarks};\n\
+         /// Length of the serialised map, bytes.\npub const MAP_BYTES_LEN: usize = {n};\n\
          /// True vehicle pose `[x_m, y_m, theta_rad]` (world frame) at each scan.\n\
-         pub const TRUE_POSES: [[f32; 3]; {SCANS}] = [\n{truth}];\n"
+         pub const TRUE_POSES: [[f32; 3]; {SCANS}] = [\n{truth}];\n\
+         /// Odometry since the previous scan `[dx_m, dy_m, dtheta_rad]` (vehicle frame; \
+         translation with a {ODOMETRY_SCALE} scale error; zero for the first scan).\n\
+         pub const ODOMETRY: [[f32; 3]; {SCANS}] = [\n{odometry}];\n"
     );
     fs::write(out.join("recording.rs"), src).expect("write recording.rs");
 }

@@ -18,6 +18,7 @@ pub mod math_costs;
 pub mod pipeline;
 pub mod pose_frame;
 pub mod recorded;
+pub mod replay;
 pub mod stage_stats;
 pub mod test_harness;
 

@@ -1,13 +1,19 @@
-//! The recorded replay data, embedded in flash: synthetic LMS511 scans as the raw u16
-//! millimetre ranges the driver delivers, and the true poses they were taken at.
+//! The recorded replay data, embedded in flash: the stored map exactly as it is flashed
+//! (header + postcard payload + CRC), synthetic LMS511 scans as the raw u16 millimetre
+//! ranges the driver delivers, the true poses and the odometry between scans.
 //!
-//! Generated on the host at build time by `build/record.rs`.
+//! Generated on the host at build time by `build/record.rs` with loc-core's test kit.
 
 mod generated {
     include!(concat!(env!("OUT_DIR"), "/recording.rs"));
 }
 
-pub use generated::{BEAMS_PER_SCAN, SCAN_COUNT, TRUE_POSES};
+pub use generated::{
+    BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, ODOMETRY, SCAN_COUNT, TRUE_POSES,
+};
+
+/// The serialised map, as a flash region holding a map file would contain it.
+pub static MAP_BYTES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
 
 /// The scans, back to back: `SCAN_COUNT × BEAMS_PER_SCAN` little-endian u16, millimetres,
 /// 0 = no echo.

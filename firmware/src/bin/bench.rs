@@ -1,18 +1,22 @@
-//! Benchmark: the per-scan pipeline on the recorded 1141-point LMS511 scans, instructions
-//! per scan for each stage and end to end (mean and max), checked against the budget.
+//! Benchmark: the loc-core pipeline (strip, match, filter) on the recorded 1141-point LMS511
+//! scans against the flashed map; instructions per scan for each stage and end to end (mean
+//! and max), checked against the budget.
 //!
 //! Under QEMU (`-icount shift=0`) the counter is in executed instructions; on hardware in
-//! core cycles. Exits with failure when the end-to-end maximum exceeds the budget.
+//! core cycles. Exits with failure when the `Localizer`'s end-to-end maximum exceeds the
+//! budget, or when the replay itself fails (map, staged chain and Localizer disagreeing).
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::instruction_loop;
-use firmware::pipeline::{Pipeline, Stage};
-use firmware::recorded::{self, BEAMS_PER_SCAN, SCAN_COUNT, TRUE_POSES};
+use firmware::pipeline::{Stage, StagedPipeline};
+use firmware::recorded::{BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
+use firmware::replay::{self, ReplaySlots};
 use firmware::stage_stats::StageStats;
-use loc_core::geometry::Pose2;
+use loc_core::localizer::Localizer;
+use loc_core::map::TunnelMap;
 use loc_core::scan::Scan;
 
 /// End-to-end budget per 1141-point scan, instructions (about 9 ms of a 168 MHz Cortex-M4F
@@ -22,11 +26,24 @@ const BUDGET_INSTRUCTIONS: u64 = 1_500_000;
 /// Iterations of the calibration loop (4 instructions each).
 const CALIBRATION_ITERATIONS: u32 = 250_000;
 
+fn fail() -> ! {
+    SelectedBoard::exit(ExitStatus::Failure)
+}
+
+fn print_stats(name: &str, s: &StageStats) {
+    defmt::println!(
+        "stage {=str}: mean {=u64} max {=u64}",
+        name,
+        s.mean(),
+        s.max
+    );
+}
+
 #[entry]
 fn main() -> ! {
     let Some(board) = SelectedBoard::take() else {
         defmt::error!("board peripherals already taken");
-        SelectedBoard::exit(ExitStatus::Failure)
+        fail()
     };
     defmt::println!(
         "bench on {=str}, counter unit {}",
@@ -47,64 +64,95 @@ fn main() -> ! {
     );
 
     for cost in firmware::math_costs::measure_all(&board) {
-        defmt::println!(
-            "math {=str}: {=u64} instructions per call",
-            cost.name,
-            cost.per_call
-        );
+        defmt::println!("math {=str}: {=u64} per call", cost.name, cost.per_call);
     }
 
-    let Some(scan) = cortex_m::singleton!(: Scan = Scan::new()) else {
-        SelectedBoard::exit(ExitStatus::Failure)
+    let (Some(map), Some(scan), Some(staged), Some(localizer)) = (
+        cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
+        cortex_m::singleton!(: Scan = Scan::new()),
+        cortex_m::singleton!(: Option<StagedPipeline> = None),
+        cortex_m::singleton!(: Option<Localizer<'static, TunnelMap>> = None),
+    ) else {
+        fail()
     };
-    let mut raw = [0u16; BEAMS_PER_SCAN];
-    let [x, y, th] = TRUE_POSES[0];
-    let mut pipeline = Pipeline::new(Pose2::new(x, y, th));
-    let mut stats = [StageStats::new(); Stage::ALL.len()];
-    let mut end_to_end = StageStats::new();
-    for k in 0..SCAN_COUNT {
-        if !recorded::load_scan_mm(k, &mut raw) {
-            defmt::error!("recorded scan {=usize} missing", k);
-            SelectedBoard::exit(ExitStatus::Failure)
+    let map_cost = match replay::load_map(&board, map) {
+        Ok(cost) => cost,
+        Err(e) => {
+            defmt::error!("map failed to load: {}", defmt::Display2Format(&e));
+            fail()
         }
-        let costs = pipeline.process(&board, scan, &raw).costs;
-        for (s, c) in stats.iter_mut().zip(costs.0) {
-            s.record(c);
+    };
+    defmt::println!(
+        "map: {=usize} bytes, {=usize} landmarks, loaded and indexed in {=u64}",
+        MAP_BYTES_LEN,
+        MAP_LANDMARKS,
+        map_cost
+    );
+    let map: &'static TunnelMap = map;
+
+    let report = match replay::replay(
+        &board,
+        map,
+        ReplaySlots {
+            scan,
+            staged,
+            localizer,
+        },
+    ) {
+        Ok(r) => r,
+        Err(e) => {
+            defmt::error!("replay failed: {}", e);
+            fail()
         }
-        end_to_end.record(costs.end_to_end());
-    }
+    };
 
     defmt::println!(
-        "instructions per scan over {=usize} scans of {=usize} beams:",
+        "per scan over {=usize} scans of {=usize} beams ({}):",
         SCAN_COUNT,
-        BEAMS_PER_SCAN
+        BEAMS_PER_SCAN,
+        SelectedBoard::COUNTER_UNIT
     );
-    for (stage, s) in Stage::ALL.iter().zip(stats.iter()) {
-        defmt::println!(
-            "stage {=str}: mean {=u64} max {=u64}",
-            stage.name(),
-            s.mean(),
-            s.max
-        );
+    for (stage, s) in Stage::ALL.iter().zip(report.stages.iter()) {
+        print_stats(stage.name(), s);
     }
+    print_stats("sum-of-stages", &report.staged_end_to_end);
+    print_stats("end-to-end (Localizer)", &report.localizer_end_to_end);
     defmt::println!(
-        "stage end-to-end: mean {=u64} max {=u64}",
-        end_to_end.mean(),
-        end_to_end.max
+        "localizer: {=u32} tracking, {=u32} degenerate, {=u32} rejected; final error {=f32} m, {=f32} rad; max error over the second half {=f32} m",
+        report.statuses[0],
+        report.statuses[1],
+        report.statuses[2],
+        report.final_error_m,
+        report.final_heading_error_rad,
+        report.max_late_error_m
     );
-    if end_to_end.max <= BUDGET_INSTRUCTIONS {
+
+    let mut ok = true;
+    if report.pose_mismatches != 0 {
         defmt::println!(
-            "budget PASS: max {=u64} <= {=u64} instructions per scan",
-            end_to_end.max,
+            "FAIL: staged chain and Localizer disagree on {=u32} scans",
+            report.pose_mismatches
+        );
+        ok = false;
+    }
+    let worst = report.localizer_end_to_end.max;
+    if worst <= BUDGET_INSTRUCTIONS {
+        defmt::println!(
+            "budget PASS: max {=u64} <= {=u64} instructions per scan end to end",
+            worst,
             BUDGET_INSTRUCTIONS
         );
-        SelectedBoard::exit(ExitStatus::Success)
     } else {
         defmt::println!(
-            "budget FAIL: max {=u64} > {=u64} instructions per scan",
-            end_to_end.max,
+            "budget FAIL: max {=u64} > {=u64} instructions per scan end to end",
+            worst,
             BUDGET_INSTRUCTIONS
         );
-        SelectedBoard::exit(ExitStatus::Failure)
+        ok = false;
     }
+    SelectedBoard::exit(if ok {
+        ExitStatus::Success
+    } else {
+        ExitStatus::Failure
+    })
 }

@@ -5,7 +5,11 @@
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
+use firmware::pipeline::StagedPipeline;
 use firmware::test_harness::TestRunner;
+use loc_core::localizer::Localizer;
+use loc_core::map::TunnelMap;
+use loc_core::scan::Scan;
 
 mod tests;
 
@@ -15,9 +19,26 @@ fn main() -> ! {
         defmt::error!("board peripherals already taken");
         SelectedBoard::exit(ExitStatus::Failure)
     };
+    let (Some(map), Some(scan), Some(staged), Some(localizer), Some(map_copy)) = (
+        cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
+        cortex_m::singleton!(: Scan = Scan::new()),
+        cortex_m::singleton!(: Option<StagedPipeline> = None),
+        cortex_m::singleton!(: Option<Localizer<'static, TunnelMap>> = None),
+        cortex_m::singleton!(: [u8; firmware::recorded::MAP_BYTES_LEN] =
+            [0; firmware::recorded::MAP_BYTES_LEN]),
+    ) else {
+        SelectedBoard::exit(ExitStatus::Failure)
+    };
     defmt::println!("selftest on {=str}", SelectedBoard::NAME);
     let mut runner = TestRunner::new();
-    tests::run_all(&mut runner, &mut board);
+    let memory = tests::Memory {
+        map,
+        scan,
+        staged,
+        localizer,
+        map_copy,
+    };
+    tests::run_all(&mut runner, &mut board, memory);
     if runner.finish() {
         SelectedBoard::exit(ExitStatus::Success)
     } else {

@@ -2,15 +2,41 @@
 
 use firmware::board::{Board, CounterUnit, SelectedBoard};
 use firmware::instruction_loop;
-use firmware::pipeline::Pipeline;
+use firmware::pipeline::StagedPipeline;
 use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
-use firmware::recorded::{self, BEAMS_PER_SCAN, SCAN_COUNT, TRUE_POSES};
+use firmware::recorded::{self, BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
+use firmware::replay::{self, ReplaySlots, INITIAL_ERROR};
 use firmware::test_harness::{check, TestResult, TestRunner};
-use loc_core::geometry::Pose2;
+use loc_core::geometry::Point2;
+use loc_core::localizer::{Localizer, LocalizerConfig};
+use loc_core::map::{MapError, MapQuery, TunnelMap};
 use loc_core::scan::Scan;
+use loc_core::scan::LMS511_MAX_BEAMS;
+use loc_core::strip::{strip_walls, PointLabel};
+
+/// The large buffers the tests share (statics owned by `main`).
+pub struct Memory {
+    /// The stored map.
+    pub map: &'static mut TunnelMap,
+    /// A scan buffer.
+    pub scan: &'static mut Scan,
+    /// Scratch of the staged chain.
+    pub staged: &'static mut Option<StagedPipeline>,
+    /// Scratch of the localizer.
+    pub localizer: &'static mut Option<Localizer<'static, TunnelMap>>,
+    /// A RAM copy of the map bytes to damage.
+    pub map_copy: &'static mut [u8; MAP_BYTES_LEN],
+}
 
 /// Runs every test.
-pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard) {
+pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memory) {
+    let Memory {
+        map,
+        scan,
+        staged,
+        localizer,
+        map_copy,
+    } = memory;
     runner.run("counter_calibrates_against_known_loop", || {
         counter_calibrates(board)
     });
@@ -23,8 +49,14 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard) {
         pose_frame_rejects_corruption,
     );
     runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
-    runner.run("recorded_scans_convert_and_strip", || {
-        recorded_scans_convert_and_strip(board)
+    runner.run("damaged_map_bytes_are_rejected", || {
+        damaged_map_is_rejected(map, map_copy)
+    });
+    runner.run("map_loads_from_flash_bytes", || map_loads(board, map));
+    runner.run("recorded_scans_strip_to_both_walls", || scans_strip(scan));
+    let map: &'static TunnelMap = map;
+    runner.run("localizer_converges_on_recorded_scans", || {
+        localizer_converges(board, map, scan, staged, localizer)
     });
 }
 
@@ -69,10 +101,10 @@ fn counter_is_deterministic(board: &SelectedBoard) -> TestResult {
         instruction_loop::run(10_000);
         *c = board.counter_now() - t0;
     }
-    let spread =
-        counts.iter().max().copied().unwrap_or(0) - counts.iter().min().copied().unwrap_or(0);
+    let max = counts.iter().max().copied().unwrap_or(0);
+    let min = counts.iter().min().copied().unwrap_or(0);
     check(
-        spread <= SelectedBoard::COUNTER_RESOLUTION,
+        max - min <= SelectedBoard::COUNTER_RESOLUTION,
         "repeated measurements of the same loop differ by more than one tick",
     )
 }
@@ -124,7 +156,7 @@ fn pose_frame_rejects_corruption() -> TestResult {
 }
 
 /// Sends a pose frame over the board UART (the runner captures UART0 to a file and checks
-/// it). Exercises the UART's transmit path end to end.
+/// it against the bytes logged here). Exercises the UART's transmit path end to end.
 fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     use embedded_io::Write;
     let mut buf = [0u8; MAX_FRAME_BYTES];
@@ -142,30 +174,132 @@ fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     Ok(())
 }
 
-/// Every recorded scan converts to points and both tunnel walls are found in it, with most
-/// points on them (the recording is a straight tunnel).
-fn recorded_scans_convert_and_strip(board: &SelectedBoard) -> TestResult {
-    let Some(scan) = cortex_m::singleton!(: Scan = Scan::new()) else {
-        return Err("scan buffer already taken");
+/// A flipped payload bit, a cut-off file and a foreign header are each refused with their
+/// own error, and leave the map empty.
+fn damaged_map_is_rejected(map: &mut TunnelMap, copy: &mut [u8; MAP_BYTES_LEN]) -> TestResult {
+    copy.copy_from_slice(recorded::MAP_BYTES);
+    // A bit flip deep in the payload (past the 16-byte header).
+    let Some(b) = copy.get_mut(MAP_BYTES_LEN / 2) else {
+        return Err("recorded map too short");
     };
+    *b ^= 0x10;
+    check(
+        matches!(
+            map.load_from_bytes(copy),
+            Err(MapError::ChecksumMismatch { .. })
+        ),
+        "a bit flip in the payload was not reported as a checksum mismatch",
+    )?;
+    check(map.is_empty(), "a rejected load left data in the map")?;
+    check(
+        matches!(
+            map.load_from_bytes(&recorded::MAP_BYTES[..MAP_BYTES_LEN - 7]),
+            Err(MapError::Truncated { .. })
+        ),
+        "a truncated map was not reported as truncated",
+    )?;
+    copy.copy_from_slice(recorded::MAP_BYTES);
+    copy[0] = b'X';
+    check(
+        matches!(map.load_from_bytes(copy), Err(MapError::BadMagic { .. })),
+        "a foreign header was not reported as bad magic",
+    )?;
+    check(map.is_empty(), "a rejected load left data in the map")
+}
+
+/// The flashed map loads, holds the recorded landmarks, and answers a query: from the
+/// centre line of the 5 m tunnel the nearest wall is 2.5 m away.
+fn map_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
+    let cost = replay::load_map(board, map).map_err(|_| "the flashed map did not load")?;
+    defmt::println!(
+        "  map of {=usize} bytes loaded in {=u64}",
+        MAP_BYTES_LEN,
+        cost
+    );
+    check(
+        map.landmarks().len() == MAP_LANDMARKS,
+        "loaded map has a different landmark count than the recorded one",
+    )?;
+    // Between landmarks? The nearest geometry is a wall or a landmark, so at most 2.5 m.
+    let hit = map
+        .nearest(Point2::new(60.0, 0.0), 5.0)
+        .ok_or("no map geometry within 5 m of the centre line")?;
+    check(
+        hit.projection.distance_m <= 2.5 + 1e-3 && hit.projection.distance_m > 1.5,
+        "nearest map geometry from the centre line not where the 5 m tunnel puts it",
+    )
+}
+
+/// Every recorded scan converts to > 1000 points and both tunnel walls are found in it.
+fn scans_strip(scan: &mut Scan) -> TestResult {
+    let config = LocalizerConfig::default();
     let mut raw = [0u16; BEAMS_PER_SCAN];
-    for (k, &[x, y, th]) in TRUE_POSES.iter().enumerate().take(SCAN_COUNT) {
+    let mut labels = [PointLabel::Outlier; LMS511_MAX_BEAMS];
+    for k in 0..SCAN_COUNT {
         check(recorded::load_scan_mm(k, &mut raw), "recorded scan missing")?;
-        let mut pipeline = Pipeline::new(Pose2::new(x, y, th));
-        let outcome = pipeline.process(board, scan, &raw);
+        scan.load_raw_mm(&config.sensor, &raw, 1.0, 0.0);
         check(
             scan.len() > 1000,
             "fewer than 1000 valid beams in a recorded scan",
         )?;
+        let strip = strip_walls(scan.points(), &config.strip, &mut labels);
         check(
-            outcome.strip.left.is_some() && outcome.strip.right.is_some(),
+            strip.left.is_some() && strip.right.is_some(),
             "stripping did not find both walls",
         )?;
-        let c = outcome.strip.counts;
         check(
-            u32::from(c.left_wall) + u32::from(c.right_wall) > 500,
-            "fewer than 500 wall points",
+            strip.counts.landmark > 0,
+            "no landmark point in a scan of a landmarked tunnel",
         )?;
     }
     Ok(())
+}
+
+/// From an initial pose 0.34 m and 0.02 rad off, the localizer pulls in and stays close to
+/// the truth over the recorded drive with 2 % odometry scale error; the stage-by-stage
+/// chain ends every scan at exactly the Localizer's pose.
+fn localizer_converges(
+    board: &SelectedBoard,
+    map: &'static TunnelMap,
+    scan: &mut Scan,
+    staged: &mut Option<StagedPipeline>,
+    localizer: &mut Option<Localizer<'static, TunnelMap>>,
+) -> TestResult {
+    let report = replay::replay(
+        board,
+        map,
+        ReplaySlots {
+            scan,
+            staged,
+            localizer,
+        },
+    )
+    .map_err(|_| "replay could not run")?;
+    let initial_error_m = loc_core::math::hypot(INITIAL_ERROR[0], INITIAL_ERROR[1]);
+    defmt::println!(
+        "  initial error {=f32} m; final {=f32} m, {=f32} rad; worst over the second half {=f32} m; {=u32} tracking, {=u32} degenerate, {=u32} rejected",
+        initial_error_m,
+        report.final_error_m,
+        report.final_heading_error_rad,
+        report.max_late_error_m,
+        report.statuses[0],
+        report.statuses[1],
+        report.statuses[2]
+    );
+    check(
+        report.pose_mismatches == 0,
+        "staged chain and Localizer disagree on the pose",
+    )?;
+    check(
+        report.final_error_m < 0.05 && report.max_late_error_m < 0.1,
+        "position error does not stay within 0.05 m (final) / 0.1 m (second half)",
+    )?;
+    check(
+        report.final_heading_error_rad < 0.01,
+        "heading error above 0.01 rad",
+    )?;
+    check(
+        report.statuses[2] as usize * 4 <= SCAN_COUNT,
+        "more than a quarter of the scans rejected",
+    )
 }
