@@ -434,3 +434,52 @@ fn switches_a_cola_a_sensor_to_cola_b_with_a_reconnect() {
     );
     drop(emu);
 }
+
+#[test]
+fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
+    // The caller's scan source (how host-sim feeds simulated scans): the recorded scan with
+    // second and third echoes added.
+    let base = lms511_source().scans()[0].clone();
+    let source = move || {
+        let mut s = base.clone();
+        for n in [b'2', b'3'] {
+            let mut d = s.channels16[0].clone();
+            d.name = *b"DIST0";
+            d.name[4] = n;
+            d.values
+                .iter_mut()
+                .for_each(|v| *v = v.saturating_add(1000));
+            s.channels16.push(d);
+            let mut r = s.channels8[0].clone();
+            r.name = *b"RSSI0";
+            r.name[4] = n;
+            s.channels8.push(r);
+        }
+        Some(s)
+    };
+    let emu = Emulator::start(EmulatorConfig::default(), source).unwrap();
+    let names = |mask: u16| {
+        let mut link = link_to(&emu);
+        let mut cfg = fast_config();
+        cfg.scan_data.output_channel = mask;
+        let mut session = Session::new(vec![0u8; 16 * 1024], cfg);
+        let clock = StdClock::new();
+        let t0 = Instant::now();
+        loop {
+            assert!(t0.elapsed() < Duration::from_secs(5));
+            if let Event::Scan(s) = session.poll(&mut link, &clock) {
+                let v: Vec<String> = s.channels().map(|c| c.name().to_string()).collect();
+                let d2 = s.channel("DIST2").map(|c| c.get(0));
+                return (v, d2);
+            }
+        }
+    };
+    let (all, d2) = names(0x1F);
+    assert_eq!(all, ["DIST1", "DIST2", "DIST3", "RSSI1", "RSSI2", "RSSI3"]);
+    let d1 = lms511_source().scans()[0].channels16[0].values[0];
+    assert_eq!(d2, Some(Some(d1.saturating_add(1000))));
+    let (first_two, _) = names(0x03);
+    assert_eq!(first_two, ["DIST1", "DIST2", "RSSI1", "RSSI2"]);
+    let (first, _) = names(0x01);
+    assert_eq!(first, ["DIST1", "RSSI1"]);
+}
