@@ -68,8 +68,7 @@ pub fn cos(angle_rad: f32) -> f32 {
 /// NaN or infinite input gives `(NaN, NaN)`.
 #[inline]
 pub fn sin_cos(angle_rad: f32) -> (f32, f32) {
-    if !(abs(angle_rad) <= FAST_REDUCTION_LIMIT_RAD) {
-        // Also taken by NaN (the comparison is false).
+    if angle_rad.is_nan() || abs(angle_rad) > FAST_REDUCTION_LIMIT_RAD {
         return libm::sincosf(angle_rad);
     }
     let (r, quadrant) = reduce(angle_rad);

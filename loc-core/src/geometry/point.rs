@@ -32,12 +32,15 @@ impl Point2 {
 
     /// Component-wise sum.
     #[inline]
+    // Named methods on purpose (no operator traits): explicit in the hot loops.
+    #[allow(clippy::should_implement_trait)]
     pub fn add(self, o: Point2) -> Point2 {
         Point2::new(self.x_m + o.x_m, self.y_m + o.y_m)
     }
 
     /// Component-wise difference `self - o`.
     #[inline]
+    #[allow(clippy::should_implement_trait)]
     pub fn sub(self, o: Point2) -> Point2 {
         Point2::new(self.x_m - o.x_m, self.y_m - o.y_m)
     }
