@@ -217,6 +217,37 @@ fn serve_tcp(shared: &Shared, mut stream: TcpStream) -> io::Result<()> {
     r
 }
 
+/// Longest the emulator waits for a client to take its bytes before it gives the client up.
+const WRITE_PATIENCE: Duration = Duration::from_secs(2);
+
+/// `write_all` that rides out short write time-outs (a serial port's time-out is also its
+/// read time-out, a few ms; a pty buffer holds less than one CoLa-A scan), up to
+/// [`WRITE_PATIENCE`] or a stop.
+fn write_patiently<S: Write>(shared: &Shared, stream: &mut S, mut bytes: &[u8]) -> io::Result<()> {
+    let deadline = Instant::now() + WRITE_PATIENCE;
+    while !bytes.is_empty() {
+        match stream.write(bytes) {
+            Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+            Ok(n) => bytes = &bytes[n..],
+            Err(e) if is_no_data(&e) && Instant::now() < deadline && !shared.stopping() => {}
+            Err(e) => return Err(e),
+        }
+    }
+    loop {
+        match stream.flush() {
+            Err(e) if is_no_data(&e) && Instant::now() < deadline => {}
+            r => return r,
+        }
+    }
+}
+
+fn is_no_data(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+    )
+}
+
 /// The connection loop: read (short time-out), answer, send scans due, until the peer closes,
 /// a fault drops the connection, or the emulator stops.
 fn serve<S: Read + Write>(shared: &Shared, stream: &mut S) -> io::Result<()> {
@@ -235,19 +266,12 @@ fn serve<S: Read + Write>(shared: &Shared, stream: &mut S) -> io::Result<()> {
                     }
                 });
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock
-                        | io::ErrorKind::TimedOut
-                        | io::ErrorKind::Interrupted
-                ) => {}
+            Err(e) if is_no_data(&e) => {}
             Err(e) => return Err(e),
         }
         let verdict = conn.tick(Instant::now(), &mut out);
         if !out.is_empty() {
-            stream.write_all(&out)?;
-            stream.flush()?;
+            write_patiently(shared, stream, &out)?;
             out.clear();
         }
         if verdict == Verdict::Drop {

@@ -129,6 +129,7 @@ struct Core {
     dialect: Dialect,
     detected: bool,
     switch_tried: bool,
+    framed_last_poll: bool,
     stats: SessionStats,
     failed_attempts: u32,
     clear_framer: bool,
@@ -147,6 +148,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
                 dialect: cfg.first_dialect,
                 detected: false,
                 switch_tried: false,
+                framed_last_poll: false,
                 stats: SessionStats::default(),
                 failed_attempts: 0,
                 clear_framer: false,
@@ -171,11 +173,18 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
             return ev;
         }
         self.apply_clear();
-        if let Err(ev) = self.core.fill(&mut self.framer, io, now) {
-            self.apply_clear();
-            return ev;
+        // After a frame, more may be buffered: frame them before waiting on the transport
+        // (whose `read_ready` may wait a few ms), so a burst is delivered without delay.
+        let frames_pending = self.core.framed_last_poll && self.framer.buffered() > 0;
+        if !frames_pending {
+            if let Err(ev) = self.core.fill(&mut self.framer, io, now) {
+                self.apply_clear();
+                return ev;
+            }
         }
-        match self.framer.next_frame() {
+        let next = self.framer.next_frame();
+        self.core.framed_last_poll = next.is_some();
+        match next {
             None => Event::Idle,
             Some(Err(e)) => Event::FrameDropped(e),
             Some(Ok(frame)) => self.core.on_frame(frame, io, now),

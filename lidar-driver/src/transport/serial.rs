@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use serialport::SerialPort;
 
-use super::read_ahead::ReadAhead;
+use super::read_ahead::{is_no_data, ReadAhead};
 use super::Transport;
 
 /// Settings of a [`SerialLink`]: 8 data bits, no parity, 1 stop bit, no flow control.
@@ -17,6 +17,8 @@ pub struct SerialConfig {
     pub baud_rate: u32,
     /// Longest wait of `read_ready` for the first bytes (keeps poll loops from spinning).
     pub ready_wait: Duration,
+    /// Longest a write may wait for the port to take its bytes.
+    pub write_timeout: Duration,
     /// Receive buffer, bytes.
     pub read_ahead_len: usize,
 }
@@ -27,6 +29,7 @@ impl SerialConfig {
         SerialConfig {
             baud_rate,
             ready_wait: Duration::from_millis(5),
+            write_timeout: Duration::from_secs(1),
             read_ahead_len: 16 * 1024,
         }
     }
@@ -98,7 +101,15 @@ impl embedded_io::ReadReady for SerialLink {
 
 impl embedded_io::Write for SerialLink {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        io::Write::write(self.port()?, buf)
+        // The port's time-out is the short read wait; writes get their own, longer limit.
+        let deadline = std::time::Instant::now() + self.config.write_timeout;
+        let port = self.port()?;
+        loop {
+            match io::Write::write(port, buf) {
+                Err(e) if is_no_data(&e) && std::time::Instant::now() < deadline => {}
+                r => return r,
+            }
+        }
     }
 
     fn flush(&mut self) -> io::Result<()> {
