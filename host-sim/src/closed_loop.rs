@@ -143,6 +143,11 @@ pub struct RunLog {
     pub scans: Vec<LidarScan>,
     /// The odometry readings, when asked for ([`RunOptions::keep_scans`]).
     pub odometry: Vec<OdometrySample>,
+    /// The true start pose (where the odometry's dead reckoning starts), world frame.
+    pub start: SimPose,
+    /// What the estimator was reset with: initial pose (world frame), position σ (m) and
+    /// heading σ (rad). A recording keeps it so a replay starts the same way.
+    pub initial_estimate: (SimPose, f64, f64),
     /// Wall-clock time of the whole run (simulation + estimator), seconds.
     pub wall_time_s: f64,
     /// Wall-clock time spent ray casting, seconds.
@@ -210,11 +215,12 @@ pub fn run(
         y_m: start.y_m + c.initial_sigma_m * f64::from(init_rng.gaussian()),
         theta_rad: start.theta_rad + c.initial_sigma_rad * f64::from(init_rng.gaussian()),
     };
-    estimator.reset(
+    let initial_estimate = (
         initial,
         c.initial_sigma_m.max(0.01),
         c.initial_sigma_rad.max(0.002),
     );
+    estimator.reset(initial_estimate.0, initial_estimate.1, initial_estimate.2);
 
     let steps_per_odometry = ((1.0 / scenario.odometry.rate_hz) / VEHICLE_DT_S)
         .round()
@@ -323,6 +329,8 @@ pub fn run(
         statuses,
         scans,
         odometry: odo_log,
+        start,
+        initial_estimate,
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: raycast_time,
     }

@@ -21,6 +21,7 @@ pub mod map_export;
 pub mod metrics;
 pub mod output;
 pub mod raycast;
+pub mod record;
 pub mod report;
 pub mod scenario;
 pub mod session;

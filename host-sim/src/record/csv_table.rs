@@ -1,0 +1,179 @@
+//! A small reader for the recordings' numeric CSV files: a header row of column names, then
+//! rows of numbers. Columns are found by name (so a user's file may order them freely or add
+//! others), and every error names the file, the line and the column.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// Why a CSV file could not be read.
+#[derive(Debug)]
+pub enum CsvError {
+    /// The file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file has no header row.
+    Empty {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A required column is missing from the header.
+    MissingColumn {
+        /// The file.
+        path: PathBuf,
+        /// The column's name.
+        column: &'static str,
+    },
+    /// A cell is not a number.
+    BadNumber {
+        /// The file.
+        path: PathBuf,
+        /// Line number, 1-based (the header is line 1).
+        line: usize,
+        /// The column's name.
+        column: String,
+        /// The cell's text.
+        text: String,
+    },
+}
+
+impl fmt::Display for CsvError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CsvError::Io { path, source } => write!(f, "cannot read {}: {source}", path.display()),
+            CsvError::Empty { path } => write!(
+                f,
+                "{} is empty: it needs a header row of column names",
+                path.display()
+            ),
+            CsvError::MissingColumn { path, column } => write!(
+                f,
+                "{} has no column `{column}` (see README.txt of a recording for the columns)",
+                path.display()
+            ),
+            CsvError::BadNumber {
+                path,
+                line,
+                column,
+                text,
+            } => write!(
+                f,
+                "{} line {line}, column `{column}`: `{text}` is not a number",
+                path.display()
+            ),
+        }
+    }
+}
+
+impl std::error::Error for CsvError {}
+
+/// A numeric CSV table: named columns, rows of `f64` (an empty cell reads as NaN).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvTable {
+    path: PathBuf,
+    names: Vec<String>,
+    rows: Vec<Vec<f64>>,
+}
+
+impl CsvTable {
+    /// Reads a file. Blank lines and lines starting with `#` are skipped.
+    pub fn read(path: &Path) -> Result<Self, CsvError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CsvError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// Parses text; `path` only names the source in errors.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, CsvError> {
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+        let Some((_, header)) = lines.next() else {
+            return Err(CsvError::Empty {
+                path: path.to_path_buf(),
+            });
+        };
+        let names: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+        let mut rows = Vec::new();
+        for (i, line) in lines {
+            let mut row = Vec::with_capacity(names.len());
+            for (k, cell) in line.split(',').enumerate() {
+                let cell = cell.trim();
+                let v = if cell.is_empty() {
+                    f64::NAN
+                } else {
+                    cell.parse::<f64>().map_err(|_| CsvError::BadNumber {
+                        path: path.to_path_buf(),
+                        line: i + 1,
+                        column: names
+                            .get(k)
+                            .cloned()
+                            .unwrap_or_else(|| format!("#{}", k + 1)),
+                        text: cell.to_string(),
+                    })?
+                };
+                row.push(v);
+            }
+            row.resize(names.len(), f64::NAN);
+            rows.push(row);
+        }
+        Ok(Self {
+            path: path.to_path_buf(),
+            names,
+            rows,
+        })
+    }
+
+    /// Index of a required column.
+    pub fn column(&self, name: &'static str) -> Result<usize, CsvError> {
+        self.optional_column(name)
+            .ok_or_else(|| CsvError::MissingColumn {
+                path: self.path.clone(),
+                column: name,
+            })
+    }
+
+    /// Index of a column, if present.
+    pub fn optional_column(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    /// The rows.
+    pub fn rows(&self) -> &[Vec<f64>] {
+        &self.rows
+    }
+}
+
+/// The value at `row[col]` (NaN when the row is short).
+pub fn cell(row: &[f64], col: usize) -> f64 {
+    row.get(col).copied().unwrap_or(f64::NAN)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn columns_by_name_and_errors_that_say_where() {
+        let p = Path::new("odometry.csv");
+        let t = CsvTable::parse(p, "# comment\nb_m,a_s\n2.5,1\n\n3,\n").unwrap();
+        let a = t.column("a_s").unwrap();
+        assert_eq!(t.rows().len(), 2);
+        assert_eq!(cell(&t.rows()[0], a), 1.0);
+        assert!(cell(&t.rows()[1], a).is_nan());
+        let e = t.column("c").unwrap_err().to_string();
+        assert!(e.contains("odometry.csv") && e.contains("`c`"), "{e}");
+        let e = CsvTable::parse(p, "a\n1\nx1\n").unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("`x1`"), "{e}");
+        assert!(matches!(
+            CsvTable::parse(p, "\n# only\n"),
+            Err(CsvError::Empty { .. })
+        ));
+    }
+}

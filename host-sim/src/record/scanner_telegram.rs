@@ -1,0 +1,276 @@
+//! The simulated LMS511's `sSN LMDscandata` telegrams, byte for byte as the real scanner
+//! streams them in CoLa-B (built as lidar-driver's [`ScanRepr`] and emitted by it).
+//!
+//! Header fields follow the real LMS511 capture in `shared/captures` (firmware V1.80):
+//! version 0, device number 1, device status `01 00` on the first scan of the stream then
+//! `00 00`, the scan counter counting scans since power-up and the telegram counter counting
+//! streamed telegrams, time since start-up in µs at the first shot (wrapping after 71.6 min),
+//! time of transmission one scan period plus 0.85 ms later (the capture shows 40.85 ms at
+//! 25 Hz), the frequency pair of the scan rate (scan frequency in 1/100 Hz; shot frequency
+//! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, one
+//! 16-bit `DIST1` channel (scale 1, offset 0, start −5° = −50000, step in 1/10000°, one
+//! `u16` millimetre range per beam, 0 = no echo), and the time block of the scanner's clock.
+//! No `RSSI1` channel: the simulator has no remission model, so the simulated scanner is set
+//! up with remission output off (`LMDscandatacfg` remission flag 0), which a real LMS511
+//! accepts.
+
+use lidar_driver::scandata::TimeBlock;
+use lidar_driver::{ChannelRepr, CommandType, Dialect, EmitError, ScanHeader, ScanRepr};
+
+use crate::lidar::{LidarScan, ScanRate, FIRST_BEAM_1E4_DEG};
+
+/// Serial number of the simulated scanner (the telegram's serial field).
+pub const SIMULATED_SERIAL: u32 = 99_000_511;
+
+/// Time the simulated scanner has been powered up when the run starts, seconds.
+pub const POWER_UP_BEFORE_RUN_S: f64 = 60.0;
+
+/// Gap between the first shot of a scan and its transmission beyond one scan period, µs.
+const TRANSMISSION_LAG_US: u32 = 850;
+
+/// The scanner's real-time clock at the start of the run: 2026-01-01 00:00:00 (the time
+/// block; nothing in the localiser reads it).
+pub const CLOCK_AT_RUN_START: (u16, u8, u8) = (2026, 1, 1);
+
+/// Shot (measurement) frequency of a scan rate, 100 Hz units: `f · 360° / step`.
+pub fn measurement_frequency_100hz(rate: ScanRate) -> u32 {
+    (rate.frequency_hz() * 360.0 / rate.step_deg() / 100.0).round() as u32
+}
+
+/// Turns simulated scans into the telegrams the LMS511 would stream for them.
+#[derive(Debug, Clone)]
+pub struct Lms511Telegrams {
+    rate: ScanRate,
+    serial: u32,
+    telegrams_sent: u32,
+}
+
+impl Lms511Telegrams {
+    /// A scanner streaming at `rate`.
+    pub fn new(rate: ScanRate) -> Self {
+        Self {
+            rate,
+            serial: SIMULATED_SERIAL,
+            telegrams_sent: 0,
+        }
+    }
+
+    /// The owned telegram of a scan taken `scan.t_s` seconds into the run. Counters advance.
+    pub fn next_repr(&mut self, scan: &LidarScan) -> ScanRepr {
+        let f = self.rate.frequency_hz();
+        let since_power_up_s = POWER_UP_BEFORE_RUN_S + scan.t_s.max(0.0);
+        let startup_us = (since_power_up_s * 1e6).round() as u64;
+        // Counters and the µs clock are u32/u16 fields on the wire: they wrap.
+        let startup_us_u32 = (startup_us % (1u64 << 32)) as u32;
+        let period_us = (1e6 / f).round() as u32;
+        let scans_since_power_up = (since_power_up_s * f).round() as u64;
+        let first = self.telegrams_sent == 0;
+        self.telegrams_sent = self.telegrams_sent.wrapping_add(1);
+        let header = ScanHeader {
+            version: 0,
+            device_number: 1,
+            serial_number: self.serial,
+            device_status: if first { [1, 0] } else { [0, 0] },
+            telegram_counter: (self.telegrams_sent % 65_536) as u16,
+            scan_counter: (scans_since_power_up % 65_536) as u16,
+            time_since_startup_us: startup_us_u32,
+            time_of_transmission_us: startup_us_u32
+                .wrapping_add(period_us)
+                .wrapping_add(TRANSMISSION_LAG_US),
+            input_status: [0, 0],
+            output_status: [0, 0],
+            reserved_layer_angle: 0,
+            scan_frequency_1e2_hz: (f * 100.0).round() as u32,
+            measurement_frequency_100hz: measurement_frequency_100hz(self.rate),
+        };
+        let dist1 = ChannelRepr {
+            name: *b"DIST1",
+            scale_factor: 1.0,
+            scale_offset: 0.0,
+            start_angle_1e4_deg: FIRST_BEAM_1E4_DEG,
+            step_1e4_deg: self.rate.step_1e4_deg() as u16,
+            values: scan.ranges_mm.clone(),
+        };
+        ScanRepr {
+            command_type: CommandType::Event,
+            header,
+            encoders: Vec::new(),
+            channels16: vec![dist1],
+            channels8: Vec::new(),
+            position: None,
+            device_name: None,
+            comment: None,
+            time: Some(clock_at(scan.t_s)),
+            event: None,
+        }
+    }
+
+    /// The CoLa-B frame of a scan (STX STX STX STX, length, payload, XOR checksum).
+    pub fn next_frame(&mut self, scan: &LidarScan) -> Result<Vec<u8>, EmitError> {
+        self.next_repr(scan).to_vec(Dialect::ColaB)
+    }
+}
+
+/// The scanner's clock `t_s` seconds into the run (from [`CLOCK_AT_RUN_START`]).
+fn clock_at(t_s: f64) -> TimeBlock {
+    let us_total = (t_s.max(0.0) * 1e6).round() as u64;
+    let secs = us_total / 1_000_000;
+    let days = secs / 86_400;
+    let (y, m, d) = civil_from_days(days_from_civil(CLOCK_AT_RUN_START) + days as i64);
+    let sod = secs % 86_400;
+    TimeBlock {
+        year: y,
+        month: m,
+        day: d,
+        hour: (sod / 3600) as u8,
+        minute: (sod / 60 % 60) as u8,
+        second: (sod % 60) as u8,
+        microsecond: (us_total % 1_000_000) as u32,
+    }
+}
+
+/// Days since 1970-01-01 of a proleptic Gregorian date (H. Hinnant's algorithm).
+fn days_from_civil((y, m, d): (u16, u8, u8)) -> i64 {
+    let (m, d) = (i64::from(m), i64::from(d));
+    let y = i64::from(y) - i64::from(m <= 2);
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let doy = (153 * (m + if m > 2 { -3 } else { 9 }) + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// The date of a day count since 1970-01-01 (inverse of [`days_from_civil`]).
+fn civil_from_days(z: i64) -> (u16, u8, u8) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    (y.clamp(0, 65_535) as u16, m as u8, d as u8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lidar_driver::recording::Recording;
+    use lidar_driver::{Framer, ScanData};
+
+    fn scan(t_s: f64, rate: ScanRate) -> LidarScan {
+        LidarScan {
+            t_s,
+            ranges_mm: (0..rate.beam_count()).map(|i| (1000 + i) as u16).collect(),
+            start_angle_rad: crate::lidar::first_beam_angle_rad(),
+            step_rad: rate.step_rad(),
+        }
+    }
+
+    /// The first scan of the real LMS511 capture (firmware V1.80).
+    fn real_first_scan() -> ScanRepr {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shared/captures/lms511_20210302_colab.sensor_to_host.colab.bin"
+        );
+        let rec = Recording::read_file(path).expect("the real LMS511 capture");
+        let frames = rec.frames();
+        let f = frames
+            .frames
+            .iter()
+            .find_map(|f| {
+                ScanData::new_checked(f.frame())
+                    .ok()
+                    .map(|s| ScanRepr::parse(&s))
+            })
+            .expect("a scan in the capture");
+        f
+    }
+
+    #[test]
+    fn telegram_has_the_layout_of_a_real_lms511_scan() {
+        let real = real_first_scan();
+        let mut t = Lms511Telegrams::new(ScanRate::Hz25);
+        let ours = t.next_repr(&scan(0.04, ScanRate::Hz25));
+        let (r, o) = (&real.header, &ours.header);
+        assert_eq!(o.version, r.version);
+        assert_eq!(o.device_number, r.device_number);
+        assert_eq!(o.device_status, r.device_status);
+        assert_eq!(o.scan_frequency_1e2_hz, r.scan_frequency_1e2_hz);
+        assert_eq!(o.measurement_frequency_100hz, r.measurement_frequency_100hz);
+        assert_eq!(ours.command_type, real.command_type);
+        assert_eq!(ours.encoders, real.encoders);
+        let (rd, od) = (&real.channels16[0], &ours.channels16[0]);
+        assert_eq!(
+            (od.name, od.scale_factor, od.scale_offset),
+            (rd.name, rd.scale_factor, rd.scale_offset)
+        );
+        assert_eq!(od.start_angle_1e4_deg, rd.start_angle_1e4_deg);
+        assert_eq!(od.step_1e4_deg, rd.step_1e4_deg);
+        assert_eq!(od.values.len(), rd.values.len());
+        assert_eq!(ours.time.is_some(), real.time.is_some());
+        // Transmission lag like the real one (40.85 ms at 25 Hz).
+        let lag = o.time_of_transmission_us - o.time_since_startup_us;
+        let real_lag = r.time_of_transmission_us - r.time_since_startup_us;
+        assert!(lag.abs_diff(real_lag) < 100, "{lag} vs {real_lag}");
+        // 3553 bytes without RSSI1 would be 3553 − 21 − 1141 with it: DIST1 only here.
+        let bytes = ours.to_vec(Dialect::ColaB).unwrap();
+        assert_eq!(bytes.len(), 3553 - 21 - 1141);
+    }
+
+    #[test]
+    fn frames_decode_back_with_counters_clock_and_every_rate() {
+        for rate in [
+            ScanRate::Hz25,
+            ScanRate::Hz35,
+            ScanRate::Hz50,
+            ScanRate::Hz75,
+            ScanRate::Hz100,
+        ] {
+            let mut t = Lms511Telegrams::new(rate);
+            let period = 1.0 / rate.frequency_hz();
+            let mut stream = Vec::new();
+            let scans: Vec<LidarScan> = (1..=3).map(|k| scan(k as f64 * period, rate)).collect();
+            for s in &scans {
+                stream.extend(t.next_frame(s).unwrap());
+            }
+            let mut framer = Framer::new(vec![0u8; 16384]);
+            let mut decoded = Vec::new();
+            framer.feed(&stream, |f| {
+                let s = ScanData::new_checked(f.unwrap()).unwrap();
+                decoded.push(ScanRepr::parse(&s));
+            });
+            assert_eq!(decoded.len(), 3);
+            for (k, (d, s)) in decoded.iter().zip(&scans).enumerate() {
+                assert_eq!(d.channels16[0].values, s.ranges_mm);
+                assert_eq!(d.channels16[0].step_1e4_deg as u32, rate.step_1e4_deg());
+                assert_eq!(d.header.device_status, if k == 0 { [1, 0] } else { [0, 0] });
+                assert_eq!(d.header.telegram_counter as usize, k + 1);
+                let dt = d.header.time_since_startup_us - decoded[0].header.time_since_startup_us;
+                // Each time is rounded to the µs on its own.
+                assert!((f64::from(dt) - k as f64 * period * 1e6).abs() <= 1.0);
+            }
+            let sc: Vec<u16> = decoded.iter().map(|d| d.header.scan_counter).collect();
+            assert_eq!((sc[1] - sc[0], sc[2] - sc[1]), (1, 1));
+        }
+        assert_eq!(measurement_frequency_100hz(ScanRate::Hz25), 540);
+        assert_eq!(measurement_frequency_100hz(ScanRate::Hz35), 504);
+        assert_eq!(measurement_frequency_100hz(ScanRate::Hz100), 540);
+    }
+
+    #[test]
+    fn clock_rolls_over_days_and_months() {
+        let c = clock_at(31.0 * 86_400.0 + 3661.25);
+        assert_eq!((c.year, c.month, c.day), (2026, 2, 1));
+        assert_eq!(
+            (c.hour, c.minute, c.second, c.microsecond),
+            (1, 1, 1, 250_000)
+        );
+        assert_eq!(
+            civil_from_days(days_from_civil((2024, 2, 29))),
+            (2024, 2, 29)
+        );
+    }
+}
