@@ -4,7 +4,8 @@
 
 use std::fmt;
 
-use crate::closed_loop::{self, Estimator, OdometryOnly, RunLog, RunOptions};
+use crate::closed_loop::{self, OdometryOnly, RunLog, RunOptions};
+use crate::estimator::LocCoreEstimator;
 use crate::scenario::{Scenario, ScenarioError};
 use crate::stored_map;
 
@@ -25,8 +26,6 @@ pub enum SimError {
     Scenario(ScenarioError),
     /// The design does not fit loc-core's stored map.
     Map(loc_core::map::MapError),
-    /// loc-core's `Localizer` facade is not wired into host-sim in this build.
-    LocalizerNotWired,
 }
 
 impl fmt::Display for SimError {
@@ -36,10 +35,6 @@ impl fmt::Display for SimError {
             SimError::Map(e) => write!(
                 f,
                 "the tunnel's design does not fit loc-core's stored map: {e} (shorten the tunnel or widen the landmark spacing)"
-            ),
-            SimError::LocalizerNotWired => write!(
-                f,
-                "loc-core's Localizer is not wired into host-sim yet: run with --estimator odometry"
             ),
         }
     }
@@ -61,13 +56,19 @@ pub fn run_scenario(
 ) -> Result<RunLog, SimError> {
     scenario.validate()?;
     let world = scenario.build_world()?;
-    let mut est: Box<dyn Estimator> = match estimator {
-        EstimatorChoice::OdometryOnly => Box::new(OdometryOnly::default()),
+    match estimator {
+        EstimatorChoice::OdometryOnly => Ok(closed_loop::run(
+            scenario,
+            &world,
+            &mut OdometryOnly::default(),
+            options,
+        )),
         EstimatorChoice::Localizer => {
             let choice = scenario.landmark_choice()?;
-            let _map = stored_map::build(&world, &choice).map_err(SimError::Map)?;
-            return Err(SimError::LocalizerNotWired);
+            // The localiser borrows the map: both live for this call only.
+            let map = stored_map::build(&world, &choice).map_err(SimError::Map)?;
+            let mut est = LocCoreEstimator::new(&map, scenario);
+            Ok(closed_loop::run(scenario, &world, &mut est, options))
         }
-    };
-    Ok(closed_loop::run(scenario, &world, est.as_mut(), options))
+    }
 }

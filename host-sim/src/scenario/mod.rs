@@ -196,6 +196,15 @@ pub struct LocalizerConfig {
     pub initial_sigma_m: f64,
     /// Standard deviation of the initial heading error, radians.
     pub initial_sigma_rad: f64,
+    /// Odometry drift the localiser is told to expect: 1σ along-track error as a fraction
+    /// of the distance travelled, over `odometry_drift_length_m`.
+    pub odometry_drift_fraction: f64,
+    /// Distance over which odometry errors stay correlated, metres (scale error and slip
+    /// persist; the model is a random walk whose variance reaches
+    /// `(fraction · length)²` after `length`).
+    pub odometry_drift_length_m: f64,
+    /// Heading drift the localiser is told to expect, radians per metre over the same length.
+    pub odometry_heading_drift_rad_per_m: f64,
 }
 
 impl Default for LocalizerConfig {
@@ -204,6 +213,9 @@ impl Default for LocalizerConfig {
             matcher: MatcherChoice::Hausdorff,
             initial_sigma_m: 0.05,
             initial_sigma_rad: 0.01,
+            odometry_drift_fraction: 0.03,
+            odometry_drift_length_m: 10.0,
+            odometry_heading_drift_rad_per_m: 0.005,
         }
     }
 }
