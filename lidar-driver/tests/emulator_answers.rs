@@ -200,3 +200,26 @@ fn busy_during_the_startup_delay() {
     std::thread::sleep(Duration::from_millis(350));
     assert_eq!(state(&mut c), b"\x02sRA SCdevicestate 1\x03");
 }
+
+#[test]
+fn identity_from_a_recording_is_what_that_sensor_answered() {
+    use lidar_driver::emulator::DeviceIdentity;
+    use lidar_driver::recording::Recording;
+    let lms511 = Recording::read_file(capture("lms511_20210302_colab.pcapng.json")).unwrap();
+    assert_eq!(
+        DeviceIdentity::from_recording(&lms511),
+        DeviceIdentity::lms511_capture()
+    );
+    let lms111 = Recording::read_file(capture("lms111_20210302_colab.pcapng.json")).unwrap();
+    let id = DeviceIdentity::from_recording(&lms111);
+    assert_eq!(id.firmware_version, b"V1.80.2  ");
+    assert_eq!(id.location_name, b"not defined");
+    assert_eq!(id.scan_config.frequency_1e2_hz, 5000);
+    assert_eq!(id.scan_config.step_1e4_deg, 5000);
+    assert_eq!(id.output_range.step_1e4_deg, 5000);
+    assert_eq!(
+        id.field_of_view_1e4_deg,
+        (id.output_range.start_1e4_deg, id.output_range.stop_1e4_deg)
+    );
+    assert!(!id.scan_data.remission, "the LMS111 capture has no RSSI");
+}

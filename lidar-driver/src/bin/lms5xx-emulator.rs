@@ -1,6 +1,7 @@
 //! `lms5xx-emulator`: an emulated SICK LMS5xx on 127.0.0.1 (or a serial port / pty) that
 //! answers the start-up sequence in CoLa-A and CoLa-B and streams the scans of a recording in a
-//! loop, to run drivers against by hand.
+//! loop, to run drivers against by hand. It answers what the recorded sensor answered
+//! (FirmwareVersion, LocationName, output range, … where the recording has them).
 //!
 //! ```text
 //! lms5xx-emulator --recording lms511_20210302_colab.pcapng.json            # TCP 127.0.0.1:2112
@@ -16,7 +17,10 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
-use lidar_driver::emulator::{DialectMode, Emulator, EmulatorConfig, Faults, RecordingSource};
+use lidar_driver::emulator::{
+    DeviceIdentity, DialectMode, Emulator, EmulatorConfig, Faults, RecordingSource,
+};
+use lidar_driver::recording::Recording;
 use lidar_driver::Dialect;
 
 /// Dialect choice on the command line.
@@ -79,13 +83,23 @@ fn main() -> ExitCode {
         eprintln!("lms5xx-emulator: --rate-hz must be in (0, 1000]");
         return ExitCode::FAILURE;
     }
-    let source = match RecordingSource::from_file(&cli.recording) {
+    let rec = match Recording::read_file(&cli.recording) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("lms5xx-emulator: {}: {e}", cli.recording.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    let source = match RecordingSource::from_recording(&rec) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("lms5xx-emulator: {}: {e}", cli.recording.display());
             return ExitCode::FAILURE;
         }
     };
+    // Answer what the recorded sensor answered (LMS511 capture values where it is silent).
+    let identity = DeviceIdentity::from_recording(&rec);
+    drop(rec);
     let n_scans = source.scans().len();
     let config = EmulatorConfig {
         port: cli.port,
@@ -103,7 +117,8 @@ fn main() -> ExitCode {
             corrupt_every: cli.corrupt_every,
             silent: false,
         },
-        ..EmulatorConfig::default()
+        identity,
+        restamp: true,
     };
     let started = match &cli.serial {
         Some(path) => serialport::new(path, cli.baud)

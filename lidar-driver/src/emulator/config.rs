@@ -3,7 +3,9 @@
 
 use std::time::Duration;
 
+use crate::answer::Answer;
 use crate::frame::Dialect;
+use crate::recording::Recording;
 use crate::request::{OutputRange, ScanConfig, ScanDataConfig};
 
 /// Which dialect the emulated device speaks.
@@ -35,6 +37,8 @@ pub struct DeviceIdentity {
     pub scan_data: ScanDataConfig,
     /// `LMPscancfg` at power-up.
     pub scan_config: ScanConfig,
+    /// Angles `LMPoutputRange` and `mLMPsetscancfg` may use, 1/10000° (start, stop).
+    pub field_of_view_1e4_deg: (i32, i32),
 }
 
 impl DeviceIdentity {
@@ -59,7 +63,51 @@ impl DeviceIdentity {
                 start_1e4_deg: -50_000,
                 stop_1e4_deg: 1_850_000,
             },
+            field_of_view_1e4_deg: super::device::LMS511_FOV_1E4_DEG,
         }
+    }
+
+    /// The identity a recording shows: every answer the recorded sensor gave (FirmwareVersion,
+    /// LocationName, ODoprh, ODpwrc, LMPoutputRange, LMDscandatacfg, LMPscancfg) and the scan
+    /// geometry of its first scan (frequency, step, angles); fields the recording lacks keep
+    /// the LMS511 capture's values. The field of view and the scan angles are the first
+    /// (power-up) output range.
+    pub fn from_recording(rec: &Recording) -> Self {
+        let mut id = Self::lms511_capture();
+        let mut range_seen = false;
+        let mut scan_seen = false;
+        for f in rec.frames().frames {
+            let Ok(a) = Answer::from_frame(f.frame()) else {
+                continue;
+            };
+            match a {
+                Answer::FirmwareVersion(v) => id.firmware_version = v.to_vec(),
+                Answer::LocationName(v) => id.location_name = v.to_vec(),
+                Answer::OperatingHours(v) => id.operating_hours = v,
+                Answer::PowerOnCount(v) => id.power_on_count = v,
+                Answer::OutputRange(r) if !range_seen => {
+                    range_seen = true;
+                    id.output_range = r;
+                }
+                Answer::ScanDataConfig(c) => id.scan_data = c,
+                Answer::ScanConfig(c) => id.scan_config = c,
+                Answer::Scan(s) if !scan_seen => {
+                    scan_seen = true;
+                    id.scan_config.frequency_1e2_hz = s.header.scan_frequency_1e2_hz;
+                    if let Some(d) = s.dist1() {
+                        id.scan_config.step_1e4_deg = u32::from(d.header.step_1e4_deg);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if range_seen {
+            let r = id.output_range;
+            id.scan_config.start_1e4_deg = r.start_1e4_deg;
+            id.scan_config.stop_1e4_deg = r.stop_1e4_deg;
+            id.field_of_view_1e4_deg = (r.start_1e4_deg, r.stop_1e4_deg);
+        }
+        id
     }
 }
 

@@ -23,8 +23,8 @@ pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
     (10000, 6667),
 ];
 
-/// LMS511 field of view, 1/10000°.
-const FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
+/// LMS511 field of view, 1/10000° (−5°…185°).
+pub(crate) const LMS511_FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
 
 /// Settings that outlive a connection (the device keeps them until power-off).
 #[derive(Debug, Clone, PartialEq)]
@@ -238,7 +238,7 @@ impl<'s> Connection<'s> {
                 Reply::Answer(Answer::WriteAck(names::ENCODER_RESOLUTION))
             }
             Request::SetOutputRange(r) => {
-                let (lo, hi) = FOV_1E4_DEG;
+                let (lo, hi) = self.shared.config.identity.field_of_view_1e4_deg;
                 if r.start_1e4_deg < lo || r.stop_1e4_deg > hi || r.start_1e4_deg >= r.stop_1e4_deg
                 {
                     return Reply::Error(SopasError::LocalConditionFailed);
@@ -251,7 +251,7 @@ impl<'s> Connection<'s> {
                 Reply::Answer(Answer::WriteAck(names::SCAN_DATA_CONFIG))
             }
             Request::SetScanConfig(c) => {
-                let r = check_scan_config(&c);
+                let r = check_scan_config(&c, self.shared.config.identity.field_of_view_1e4_deg);
                 if r.is_ok() {
                     st.scan_config = c;
                     self.next_scan = None;
@@ -409,7 +409,10 @@ enum Reply<'t> {
     None,
 }
 
-fn check_scan_config(c: &ScanConfig) -> Result<(), crate::answer::ScanConfigError> {
+fn check_scan_config(
+    c: &ScanConfig,
+    field_of_view_1e4_deg: (i32, i32),
+) -> Result<(), crate::answer::ScanConfigError> {
     use crate::answer::ScanConfigError as E;
     let freq_ok = LMS511_SCAN_MODES
         .iter()
@@ -418,7 +421,7 @@ fn check_scan_config(c: &ScanConfig) -> Result<(), crate::answer::ScanConfigErro
         .iter()
         .any(|&(f, s)| f == c.frequency_1e2_hz && s == c.step_1e4_deg);
     let step_known = LMS511_SCAN_MODES.iter().any(|&(_, s)| s == c.step_1e4_deg);
-    let (lo, hi) = FOV_1E4_DEG;
+    let (lo, hi) = field_of_view_1e4_deg;
     match (freq_ok, pair_ok, step_known) {
         (_, true, _) if c.start_1e4_deg >= lo && c.stop_1e4_deg <= hi && c.sectors == 1 => Ok(()),
         (_, true, _) => Err(E::Area),
@@ -462,27 +465,27 @@ mod tests {
             start_1e4_deg: -50_000,
             stop_1e4_deg: 1_850_000,
         };
-        assert_eq!(check_scan_config(&c), Ok(()));
+        assert_eq!(check_scan_config(&c, LMS511_FOV_1E4_DEG), Ok(()));
         c.step_1e4_deg = 1667;
         assert_eq!(
-            check_scan_config(&c),
+            check_scan_config(&c, LMS511_FOV_1E4_DEG),
             Err(crate::answer::ScanConfigError::Resolution)
         );
         c.frequency_1e2_hz = 6000;
         assert_eq!(
-            check_scan_config(&c),
+            check_scan_config(&c, LMS511_FOV_1E4_DEG),
             Err(crate::answer::ScanConfigError::Frequency)
         );
         c.step_1e4_deg = 1234;
         assert_eq!(
-            check_scan_config(&c),
+            check_scan_config(&c, LMS511_FOV_1E4_DEG),
             Err(crate::answer::ScanConfigError::FrequencyAndResolution)
         );
         c.frequency_1e2_hz = 2500;
         c.step_1e4_deg = 1667;
         c.stop_1e4_deg = 2_000_000;
         assert_eq!(
-            check_scan_config(&c),
+            check_scan_config(&c, LMS511_FOV_1E4_DEG),
             Err(crate::answer::ScanConfigError::Area)
         );
     }
