@@ -483,3 +483,35 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
     let (first, _) = names(0x01);
     assert_eq!(first, ["DIST1", "RSSI1"]);
 }
+
+#[test]
+fn emulates_the_lms111_of_its_recording() {
+    use lidar_driver::emulator::{DeviceIdentity, RecordingSource};
+    use lidar_driver::recording::Recording;
+    let rec = Recording::read_file(capture("lms111_20210302_colab.pcapng.json")).unwrap();
+    let emu = Emulator::start(
+        EmulatorConfig {
+            identity: DeviceIdentity::from_recording(&rec),
+            rate_hz: 50.0,
+            ..EmulatorConfig::default()
+        },
+        RecordingSource::from_recording(&rec).unwrap(),
+    )
+    .unwrap();
+    let mut link = link_to(&emu);
+    let mut session = Session::new(vec![0u8; 16 * 1024], fast_config());
+    let seen = run(&mut session, &mut link, 10, Duration::from_secs(10));
+    assert_eq!(seen.scans.len(), 10, "{:#?}", seen.log);
+    assert!(seen
+        .scans
+        .iter()
+        .all(|(d, r)| d.len() == 541 && r.is_empty()));
+    let log = seen.log.join("\n");
+    // "V1.80.2  " and "not defined", as the LMS111 answered.
+    assert!(
+        log.contains("FirmwareVersion([86, 49, 46, 56, 48, 46, 50, 32, 32])"),
+        "{log}"
+    );
+    assert!(log.contains("step_1e4_deg: 5000"), "{log}");
+    drop(emu);
+}
