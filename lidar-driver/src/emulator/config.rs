@@ -19,7 +19,7 @@ pub enum DialectMode {
     Only(Dialect),
 }
 
-/// The device's fixed answers. [`DeviceIdentity::LMS511_CAPTURE`] holds exactly what the LMS511
+/// The device's fixed answers. [`DeviceIdentity::lms511_capture`] holds exactly what the LMS511
 /// of `lms511_20210302_colab.pcapng.json` answered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeviceIdentity {

@@ -543,3 +543,12 @@ mod stream_props {
         }
     }
 }
+
+#[test]
+fn session_memory_is_the_buffer_plus_a_few_hundred_bytes() {
+    // The firmware budgets RAM: the session adds its state and a 128-byte transmit buffer to
+    // the caller's receive buffer, nothing else (no heap).
+    let extra = core::mem::size_of::<Session<[u8; 16 * 1024]>>() - 16 * 1024;
+    println!("Session<[u8; 16384]> = buffer + {extra} bytes");
+    assert!(extra < 1024, "{extra}");
+}
