@@ -12,13 +12,16 @@
 #![warn(missing_docs)]
 
 pub mod board;
+pub mod controller;
 pub mod fault;
 pub mod instruction_loop;
+pub mod lidar_link;
 pub mod math_costs;
 pub mod pipeline;
 pub mod pose_frame;
 pub mod recorded;
 pub mod replay;
+pub mod scan_input;
 pub mod stage_stats;
 pub mod test_harness;
 

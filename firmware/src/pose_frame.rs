@@ -13,10 +13,12 @@ pub const MAX_FRAME_BYTES: usize = 96;
 /// Localiser status as sent on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, defmt::Format)]
 pub enum PoseStatus {
-    /// The last scan matched and updated the estimate.
+    /// The last scan matched and updated every direction of the estimate.
     Tracking,
-    /// The last scan could not be used (or did not constrain every direction): the pose is
-    /// carried by odometry in the unobserved directions.
+    /// The last scan updated the estimate except along the tunnel (no landmark in view):
+    /// there the pose is carried by the motion prediction.
+    Degenerate,
+    /// The last scan could not be used: the pose is carried by the motion prediction.
     OdometryOnly,
     /// No pose yet (waiting for an initial pose or the first match).
     NotInitialised,

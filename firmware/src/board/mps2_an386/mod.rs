@@ -25,6 +25,13 @@ pub const PCLK_HZ: u32 = 25_000_000;
 /// UART0 line rate, baud (QEMU ignores it, but the divisor must be at least 16 to transmit).
 pub const UART0_BAUD: u32 = 115_200;
 
+/// Start of the stored-map flash region: the last MiB of the 4 MiB code memory
+/// (`memory/mps2-an386.x` gives the program the first 3 MiB). Load a map file there with
+/// `-device loader,file=MAP.bin,addr=0x00300000`.
+pub const MAP_REGION_ADDR: usize = 0x0030_0000;
+/// Length of the stored-map flash region, bytes.
+pub const MAP_REGION_LEN: usize = 0x0010_0000;
+
 /// The MPS2 AN386 board: UART0 and the SysTick instruction counter.
 pub struct Mps2An386 {
     uart0: CmsdkUart,
@@ -45,6 +52,14 @@ impl Board for Mps2An386 {
         let uart0 = unsafe { CmsdkUart::new(UART0_BASE, PCLK_HZ, UART0_BAUD) };
         let counter = SysTickCounter::start(cp.SYST);
         Some(Self { uart0, counter })
+    }
+
+    const COUNTER_PER_MS: u64 = 1_000_000;
+
+    fn map_region(&self) -> &'static [u8] {
+        // SAFETY: the region lies in the board's code memory, outside every linker section
+        // (memory.x ends FLASH below it); nothing writes it while the program runs.
+        unsafe { core::slice::from_raw_parts(MAP_REGION_ADDR as *const u8, MAP_REGION_LEN) }
     }
 
     fn serial(&mut self) -> &mut CmsdkUart {

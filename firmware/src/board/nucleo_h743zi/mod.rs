@@ -33,6 +33,14 @@ pub const SYS_CLK_HZ: u32 = 400_000_000;
 /// USART3 line rate, baud.
 pub const USART3_BAUD: u32 = 115_200;
 
+/// Start of the stored-map flash region: the last 256 KiB (two 128 KiB sectors of bank 2)
+/// of the 2 MiB flash (`memory/nucleo-h743zi.x` gives the program the rest). Write a map
+/// file there with `probe-rs download --chip STM32H743ZITx --binary-format bin
+/// --base-address 0x081C0000 MAP.bin`.
+pub const MAP_REGION_ADDR: usize = 0x081C_0000;
+/// Length of the stored-map flash region, bytes.
+pub const MAP_REGION_LEN: usize = 0x0004_0000;
+
 /// The NUCLEO-H743ZI2 board: USART3 and the DWT cycle counter.
 pub struct NucleoH743zi {
     usart3: Usart3,
@@ -73,6 +81,14 @@ impl Board for NucleoH743zi {
             usart3: Usart3::new(serial),
             counter,
         })
+    }
+
+    const COUNTER_PER_MS: u64 = SYS_CLK_HZ as u64 / 1000;
+
+    fn map_region(&self) -> &'static [u8] {
+        // SAFETY: the region lies in flash outside every linker section (memory.x ends FLASH
+        // below it); nothing programs flash while the firmware runs.
+        unsafe { core::slice::from_raw_parts(MAP_REGION_ADDR as *const u8, MAP_REGION_LEN) }
     }
 
     fn serial(&mut self) -> &mut Usart3 {
