@@ -489,4 +489,76 @@ mod tests {
             Err(crate::answer::ScanConfigError::Area)
         );
     }
+
+    mod props {
+        use super::super::super::{EmulatorConfig, Shared};
+        use super::*;
+        use crate::framer::Framer;
+        use proptest::prelude::*;
+
+        fn shared() -> Shared {
+            let cfg = EmulatorConfig::default();
+            Shared::new(cfg, Box::new(|| None))
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(256))]
+
+            /// Arbitrary bytes (and request-like telegrams) never panic the emulator, and
+            /// everything it sends back is a well-formed frame in the connection's dialect.
+            #[test]
+            fn any_input_gets_well_formed_answers(
+                junk in proptest::collection::vec(any::<u8>(), 0..300),
+                words in proptest::collection::vec(
+                    prop_oneof![
+                        Just("sRN".to_string()), Just("sWN".to_string()), Just("sMN".to_string()),
+                        Just("sEN".to_string()), Just("SetAccessMode".to_string()),
+                        Just("LMPoutputRange".to_string()), Just("mLMPsetscancfg".to_string()),
+                        Just("FF".to_string()), Just("3".to_string()), "[A-Za-z0-9+-]{1,9}",
+                    ],
+                    0..8),
+                binary in any::<bool>(),
+            ) {
+                let sh = shared();
+                let mut conn = Connection::new(&sh);
+                let mut input = junk;
+                let text = words.join(" ");
+                if binary {
+                    let mut f = vec![2, 2, 2, 2];
+                    f.extend_from_slice(&(text.len() as u32).to_be_bytes());
+                    f.extend_from_slice(text.as_bytes());
+                    f.push(crate::frame::xor_checksum(text.as_bytes()));
+                    input.extend_from_slice(&f);
+                } else {
+                    input.push(2);
+                    input.extend_from_slice(text.as_bytes());
+                    input.push(3);
+                }
+                let mut out = Vec::new();
+                let mut framer = Framer::new(vec![0u8; 4096]);
+                let now = Instant::now();
+                framer.feed(&input, |r| {
+                    if let Ok(f) = r {
+                        conn.on_frame(f, now, &mut out);
+                    }
+                });
+                let _ = conn.tick(now, &mut out);
+                let mut back = Framer::new(vec![0u8; 64 * 1024]);
+                let mut n = 0;
+                let mut bad = 0;
+                back.feed(&out, |r| match r {
+                    Ok(f) => {
+                        n += 1;
+                        if Answer::from_frame(f).is_err() {
+                            bad += 1;
+                        }
+                    }
+                    Err(_) => bad += 1,
+                });
+                prop_assert_eq!(bad, 0);
+                prop_assert_eq!(back.stats().garbage_bytes, 0);
+                prop_assert!(n <= sh.stats.snapshot().frames_in as usize);
+            }
+        }
+    }
 }
