@@ -58,7 +58,7 @@ impl Default for LocalizerConfig {
         Self {
             sensor: SensorSetup::default(),
             strip: StripConfig::default(),
-            max_wall_points: 160,
+            max_wall_points: 100,
             prealign: PrealignConfig::default(),
             matching,
             odometry: OdometryNoise::default(),

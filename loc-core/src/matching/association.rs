@@ -3,7 +3,7 @@
 
 use core::cmp::Ordering;
 
-use crate::geometry::{Point2, Pose2};
+use crate::geometry::{Point2, Pose2, Segment, SegmentProjection};
 use crate::map::MapQuery;
 use crate::math;
 
@@ -23,6 +23,13 @@ pub struct Association {
     pub normal: Point2,
     /// False when no map geometry lay within the gate.
     pub associated: bool,
+    /// The map segment associated with (meaningless when not associated).
+    pub segment: Segment,
+    /// True when the segment is part of a landmark (re-searched at every iteration).
+    pub landmark: bool,
+    /// Index of the scan point in the slice associated (entries get reordered by
+    /// [`select_k_best`]).
+    pub point: u16,
 }
 
 impl Association {
@@ -45,39 +52,142 @@ pub fn associate<M: MapQuery>(
 ) -> usize {
     let (s, c) = math::sin_cos(pose.theta_rad);
     let mut found = 0;
-    for (p, a) in points.iter().zip(out.iter_mut()) {
+    for (i, (p, a)) in points.iter().zip(out.iter_mut()).enumerate() {
         let world = Point2::new(
             c * p.x_m - s * p.y_m + pose.x_m,
             s * p.x_m + c * p.y_m + pose.y_m,
         );
         *a = match map.nearest(world, gate_m) {
             Some(hit) if hit.projection.distance_m.is_finite() => {
-                let pr = hit.projection;
-                let at_end = pr.t <= 0.0 || pr.t >= 1.0;
-                let normal = if at_end && pr.distance_m > 1e-6 {
-                    world.sub(pr.closest).scale(1.0 / pr.distance_m)
-                } else {
-                    pr.normal
-                };
                 found += 1;
-                Association {
-                    distance_m: pr.distance_m,
-                    world,
-                    closest: pr.closest,
-                    normal,
-                    associated: true,
-                }
+                paired(world, hit.segment, hit.projection, hit.kind.is_landmark())
             }
-            _ => Association {
-                distance_m: gate_m,
-                world,
-                closest: world,
-                normal: Point2::new(1.0, 0.0),
-                associated: false,
-            },
+            _ => unpaired(world, gate_m),
         };
+        a.point = u16::try_from(i).unwrap_or(u16::MAX);
     }
     found
+}
+
+/// Like [`associate`] but keeps each wall point's segment from the last association and only
+/// re-projects onto it (no map search): valid while the pose has moved little since, and
+/// an order of magnitude cheaper. Points on landmarks are searched again (their nearest
+/// flank changes with small moves, and they are few); unassociated points stay so. Points
+/// farther than `gate_m` from their segment become unassociated. Entries must come from an
+/// earlier [`associate`] on the same points.
+pub fn reproject<M: MapQuery>(
+    map: &M,
+    points: &[Point2],
+    pose: Pose2,
+    gate_m: f32,
+    out: &mut [Association],
+) -> usize {
+    let (s, c) = math::sin_cos(pose.theta_rad);
+    let mut found = 0;
+    for a in out.iter_mut().take(points.len()) {
+        let Some(p) = points.get(usize::from(a.point)) else {
+            continue;
+        };
+        let world = Point2::new(
+            c * p.x_m - s * p.y_m + pose.x_m,
+            s * p.x_m + c * p.y_m + pose.y_m,
+        );
+        if !a.associated {
+            a.world = world;
+            continue;
+        }
+        let point = a.point;
+        let hit = if a.landmark {
+            map.nearest(world, gate_m)
+                .filter(|h| h.projection.distance_m.is_finite())
+                .map(|h| (h.segment, h.projection, h.kind.is_landmark()))
+        } else {
+            let pr = a.segment.project(world);
+            (pr.distance_m <= gate_m).then_some((a.segment, pr, false))
+        };
+        *a = match hit {
+            Some((segment, pr, landmark)) => {
+                found += 1;
+                paired(world, segment, pr, landmark)
+            }
+            None => unpaired(world, gate_m),
+        };
+        a.point = point;
+    }
+    found
+}
+
+fn paired(world: Point2, segment: Segment, pr: SegmentProjection, landmark: bool) -> Association {
+    let at_end = pr.t <= 0.0 || pr.t >= 1.0;
+    let normal = if at_end && pr.distance_m > 1e-6 {
+        world.sub(pr.closest).scale(1.0 / pr.distance_m)
+    } else {
+        pr.normal
+    };
+    Association {
+        distance_m: pr.distance_m,
+        world,
+        closest: pr.closest,
+        normal,
+        associated: true,
+        segment,
+        landmark,
+        point: 0,
+    }
+}
+
+fn unpaired(world: Point2, gate_m: f32) -> Association {
+    Association {
+        distance_m: gate_m,
+        world,
+        closest: world,
+        normal: Point2::new(1.0, 0.0),
+        associated: false,
+        segment: Segment::new(world, world),
+        landmark: false,
+        point: 0,
+    }
+}
+
+/// Decides between a full association and a cheap re-projection: full on the first
+/// `always_first` iterations and whenever the pose has moved more than the thresholds since
+/// the last full association (a point 20 m out moves 5 cm per 0.0025 rad).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AssociationSchedule {
+    last_full: Option<Pose2>,
+}
+
+impl AssociationSchedule {
+    /// Translation since the last full association that forces a new one, metres.
+    pub const MAX_SHIFT_M: f32 = 0.05;
+    /// Rotation since the last full association that forces a new one, radians.
+    pub const MAX_TURN_RAD: f32 = 0.0025;
+
+    /// A schedule whose first call associates fully.
+    pub const fn new() -> Self {
+        Self { last_full: None }
+    }
+
+    /// Associates (fully or by re-projection) at `pose`; returns the points associated.
+    pub fn run<M: MapQuery>(
+        &mut self,
+        map: &M,
+        points: &[Point2],
+        pose: Pose2,
+        gate_m: f32,
+        out: &mut [Association],
+    ) -> usize {
+        let full = self.last_full.is_none_or(|last| {
+            math::hypot(pose.x_m - last.x_m, pose.y_m - last.y_m) > Self::MAX_SHIFT_M
+                || math::abs(math::wrap_angle(pose.theta_rad - last.theta_rad)) > Self::MAX_TURN_RAD
+        });
+        if full {
+            self.last_full = Some(pose);
+            associate(map, points, pose, gate_m, out)
+        } else {
+            reproject(map, points, pose, gate_m, out)
+        }
+    }
 }
 
 /// Reorders `assoc` so its first `k` entries are the `k` smallest distances (in no

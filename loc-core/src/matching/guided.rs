@@ -1,10 +1,11 @@
 //! Matching guided by landmark pre-alignment: the sequence the localizer runs.
 //!
-//! 1. Pre-align the prediction along the tunnel on the landmark clusters, match from there.
+//! 1. Pre-align the prediction along the tunnel on the landmark clusters (only if that asks
+//!    for more than `min_shift_m`), match from there.
 //! 2. Pre-align again from the matched pose: with the heading and the lateral offset now
 //!    fixed by the walls, landmark clusters land where they truly are (a 3° heading error
 //!    moves a landmark 10 m away by half a metre, enough to make the first pre-alignment
-//!    give up). If this asks for a shift above `rematch_min_shift_m`, match again from the
+//!    give up). If this asks for a shift above `min_shift_m`, match again from the
 //!    shifted pose and keep that result.
 //!
 //! In steady tracking the second pre-alignment finds nothing to shift and costs only the
@@ -42,11 +43,12 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
-    let first_shift = prealign_along_tunnel(map, points, labels, strip, predicted, prealign);
+    let first_shift = prealign_along_tunnel(map, points, labels, strip, predicted, prealign)
+        .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
     let start = first_shift.map_or(predicted, |s| s.pose);
     let first = match_scan(map, selected, start, config, workspace)?;
     let again = prealign_along_tunnel(map, points, labels, strip, first.pose, prealign)
-        .filter(|s| s.shift_world.norm() > prealign.rematch_min_shift_m);
+        .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
     if let Some(shift) = again {
         if let Ok(second) = match_scan(map, selected, shift.pose, config, workspace) {
             return Ok(GuidedMatch {

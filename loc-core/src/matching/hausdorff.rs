@@ -2,7 +2,7 @@
 //! point-to-map distances with re-association and re-selection every iteration, and
 //! Levenberg damping on the Hausdorff cost (see the module docs of [`super`]).
 
-use super::association::{associate, select_k_best, Association};
+use super::association::{select_k_best, Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
 use super::{apply_step, step_size, KBest, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
@@ -33,9 +33,10 @@ pub(super) fn run<M: MapQuery>(
     let mut damping = 0.0f32;
     let mut last_step_m = f32::INFINITY;
     let mut iterations = 0u16;
+    let mut schedule = AssociationSchedule::new();
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
-        let associated = associate(map, points, pose, config.association_gate_m, assoc);
+        let associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
         let kth = select_k_best(assoc, k).unwrap_or(config.association_gate_m);
         let best_k = assoc.get(..k).unwrap_or_default();
         let cost = match config.k_best {

@@ -2,7 +2,7 @@
 //! with its nearest map segment, take the Gauss–Newton step of the summed squared
 //! point-to-line distances, repeat (see the module docs of [`super`]).
 
-use super::association::{associate, Association};
+use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
 use super::{apply_step, step_size, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
@@ -25,9 +25,10 @@ pub(super) fn run<M: MapQuery>(
     let mut last = None;
     let mut last_step_m = f32::INFINITY;
     let mut iterations = 0u16;
+    let mut schedule = AssociationSchedule::new();
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
-        associate(map, points, pose, gate, assoc);
+        schedule.run(map, points, pose, gate, assoc);
         let mut eq = NormalEquations::default();
         for a in assoc
             .iter()

@@ -142,8 +142,15 @@ pub fn observable_subspace(
 
 /// The Gauss–Newton step `−H⁺·g` restricted to the directions `information_points` observes
 /// (eigenvalue ≥ `min_information_points`), shrunk by `1 / (1 + damping)` (Levenberg).
-/// Along unobserved directions the step is exactly zero: the matcher never moves the pose
-/// where the scan has nothing to say.
+/// Along unobserved directions the step is zero: the matcher never moves the pose where the
+/// scan has nothing to say. One 3×3 eigen-decomposition per call.
+///
+/// Gauge fix: a step may be changed by any multiple of the unobserved state direction
+/// `u = S·v` without changing the fit (to first order); the multiple is chosen so the step
+/// leaves the translation along `u`'s translation part untouched. In a straight tunnel this
+/// changes nothing; in a curved one it stops a heading correction from leaking into the
+/// along-tunnel position (the minimum-norm step would turn part of it into motion around
+/// the bend).
 pub fn truncated_step(
     eq: &NormalEquations,
     min_information_points: f32,
@@ -151,30 +158,39 @@ pub fn truncated_step(
     damping: f32,
 ) -> Vector3<f32> {
     let s = scaling(rotation_scale_m);
-    let observed = observable_subspace(
-        &eq.information_points,
-        min_information_points,
-        rotation_scale_m,
-    );
-    if observed.rank == 0 {
-        return Vector3::zeros();
-    }
-    // Solve the weighted system inside the observed subspace: Δ = B·y with
-    // (BᵀHB)·y = −Bᵀg, B the observed (scaled-orthonormal) basis.
+    let shrink = 1.0 / (1.0 + damping.max(0.0));
     let hs = s * eq.weighted * s;
     let gs = s * eq.gradient;
-    let b_scaled = observed.scaled_basis;
+    if !eq.information_points.iter().all(|v| v.is_finite()) {
+        return Vector3::zeros();
+    }
+    let info_s = s * eq.information_points * s;
+    let eig = SymmetricEigen::new(0.5 * (info_s + info_s.transpose()));
+    let mut observed = Matrix3::zeros();
+    let mut rank = 0usize;
+    let mut weakest: Option<(f32, Vector3<f32>)> = None;
+    for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
+        if lambda.is_finite() && lambda >= min_information_points && lambda > 0.0 {
+            if let Some(mut col) = observed.column_iter_mut().nth(rank) {
+                col.copy_from(&v);
+                rank += 1;
+            }
+        } else if weakest.is_none_or(|(l, _)| lambda < l) {
+            weakest = Some((lambda, v.into_owned()));
+        }
+    }
     let mut y = Vector3::zeros();
-    match observed.rank {
+    match rank {
+        0 => return Vector3::zeros(),
         1 => {
-            let b = b_scaled.column(0);
+            let b = observed.column(0);
             let h = b.dot(&(hs * b));
             if h > 0.0 {
                 y.x = -b.dot(&gs) / h;
             }
         }
         2 => {
-            let b = b_scaled.fixed_columns::<2>(0);
+            let b = observed.fixed_columns::<2>(0);
             let h: Matrix2<f32> = b.transpose() * hs * b;
             if let Some(inv) = h.try_inverse() {
                 let yy = -(inv * (b.transpose() * gs));
@@ -183,40 +199,23 @@ pub fn truncated_step(
             }
         }
         _ => {
-            if let Some(inv) = hs.try_inverse() {
-                // Full rank: every direction is observed, nothing to hold.
-                let full = -(inv * gs);
-                return s * full / (1.0 + damping.max(0.0));
-            }
+            return match hs.try_inverse() {
+                Some(inv) => s * (-(inv * gs)) * shrink,
+                None => Vector3::zeros(),
+            };
         }
     }
-    let step = s * (b_scaled * y) / (1.0 + damping.max(0.0));
-    hold_along_unobserved(
-        step,
-        &eq.information_points,
-        min_information_points,
-        rotation_scale_m,
-    )
-}
-
-/// Gauge fix: a step may be changed by any multiple of the unobserved state direction
-/// `u = (d, δθ)` without changing the fit (to first order); choose the multiple that leaves
-/// the translation along `d` untouched. In a straight tunnel this changes nothing; in a curved
-/// one it stops a heading correction from leaking into the along-tunnel position (the
-/// minimum-norm step would turn part of it into motion around the bend).
-fn hold_along_unobserved(
-    step: Vector3<f32>,
-    information_points: &Matrix3<f32>,
-    min_information_points: f32,
-    rotation_scale_m: f32,
-) -> Vector3<f32> {
-    let deg = degeneracy(information_points, min_information_points, rotation_scale_m);
-    if !deg.degenerate {
+    let step = s * (observed * y) * shrink;
+    // Gauge fix along the weakest unobserved direction (see above).
+    let Some((_, v)) = weakest else {
+        return step;
+    };
+    let u = s * v;
+    let t_sq = u.x * u.x + u.y * u.y;
+    if t_sq <= 0.01 * u.norm_squared() {
         return step;
     }
-    let [ux, uy, uth] = deg.state_direction;
-    let along = step.x * ux + step.y * uy;
-    let fixed = step - Vector3::new(ux, uy, uth) * along;
+    let fixed = step - u * ((step.x * u.x + step.y * u.y) / t_sq);
     if fixed.iter().all(|v| v.is_finite()) {
         fixed
     } else {

@@ -22,6 +22,12 @@
 //!   the linearised rotation instead of his closed-form Lagrange-multiplier solution; near
 //!   convergence (where this matcher operates after odometry prediction) the two coincide.
 //!
+//! Both re-associate every iteration: a full map search ([`MapQuery::nearest`]) on the first
+//! iteration and whenever the pose has moved more than 5 cm / 0.0025 rad since the last
+//! search; otherwise wall points are re-projected onto the wall segments found then and only
+//! landmark points are searched again ([`AssociationSchedule`]). Map searches dominate the
+//! cost; near convergence the wall segments no longer change.
+//!
 //! ## What to feed it
 //! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
 //! **decimated subset of wall points** (evenly spread along each wall). The walls carry the
@@ -50,7 +56,7 @@ mod information;
 mod points;
 mod prealign;
 
-pub use association::{associate, select_k_best, Association};
+pub use association::{associate, reproject, select_k_best, Association, AssociationSchedule};
 pub use guided::{match_scan_with_prealign, GuidedMatch};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
@@ -134,8 +140,8 @@ impl Default for MatchConfig {
             range_noise_sigma_m: 0.01,
             min_points: 12,
             min_information_points: 2.0,
-            convergence_translation_m: 1.0e-4,
-            convergence_rotation_rad: 1.0e-5,
+            convergence_translation_m: 2.0e-4,
+            convergence_rotation_rad: 2.0e-5,
             rotation_scale_m: 10.0,
         }
     }
@@ -253,6 +259,9 @@ impl MatchWorkspace {
                 closest: Point2::ORIGIN,
                 normal: Point2::ORIGIN,
                 associated: false,
+                segment: crate::geometry::Segment::new(Point2::ORIGIN, Point2::ORIGIN),
+                landmark: false,
+                point: 0,
             }; MAX_MATCH_POINTS],
         }
     }
