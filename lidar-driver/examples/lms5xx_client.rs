@@ -45,8 +45,7 @@ fn main() {
                 eprintln!("gave up: {e}");
                 std::process::exit(1);
             }
-            Event::Reconnecting { error, .. } => eprintln!("reconnecting: {error}"),
-            other => eprintln!("{other:?}"),
+            other => eprintln!("{other}"),
         }
     }
     let st = session.stats();

@@ -93,3 +93,103 @@ pub enum Event<'a> {
     /// [`super::Session::restart`] starts over.
     Failed(SessionError),
 }
+
+/// Text as it came, with bytes outside printable ASCII escaped.
+struct Text<'a>(&'a [u8]);
+
+impl core::fmt::Display for Text<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        for &b in self.0 {
+            if (0x20..0x7f).contains(&b) {
+                write!(f, "{}", b as char)?;
+            } else {
+                write!(f, "\\x{b:02x}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl core::fmt::Display for DeviceInfo<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            DeviceInfo::FirmwareVersion(v) => write!(f, "firmware {}", Text(v)),
+            DeviceInfo::DeviceState(s) => {
+                write!(f, "device state {s:?} (SCdevicestate {})", s.to_u8())
+            }
+            DeviceInfo::LocationName(v) => write!(f, "location name \"{}\"", Text(v)),
+            DeviceInfo::OutputRange(r) => write!(
+                f,
+                "output range {}..{} deg, step {} deg",
+                r.start_1e4_deg as f32 / 1e4,
+                r.stop_1e4_deg as f32 / 1e4,
+                r.step_1e4_deg as f32 / 1e4
+            ),
+            DeviceInfo::ScanDataConfig(c) => write!(
+                f,
+                "scan data: echo mask {:#04x}, RSSI {}{}, time block {}, every {} scan(s)",
+                c.output_channel,
+                if c.remission { "on" } else { "off" },
+                if c.remission_16bit { " (16-bit)" } else { "" },
+                if c.time { "on" } else { "off" },
+                c.output_rate
+            ),
+            DeviceInfo::ScanConfig(c) => write!(
+                f,
+                "scan configuration {} Hz, step {} deg, {}..{} deg",
+                c.frequency_1e2_hz as f32 / 100.0,
+                c.step_1e4_deg as f32 / 1e4,
+                c.start_1e4_deg as f32 / 1e4,
+                c.stop_1e4_deg as f32 / 1e4
+            ),
+        }
+    }
+}
+
+/// One line per event, for logs.
+impl core::fmt::Display for Event<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Event::Idle => f.write_str("idle"),
+            Event::Connected { attempt } => write!(f, "connected (attempt {attempt})"),
+            Event::Probing(d) => write!(f, "probing in {d} (sRN SCdevicestate)"),
+            Event::DialectDetected(d) => write!(f, "sensor speaks {d}"),
+            Event::DialectSwitched(d) => write!(f, "sensor switched to {d}; re-connecting"),
+            Event::DeviceNotReady { state, waited_ms } => write!(
+                f,
+                "device not ready: {} (SCdevicestate {}) for {waited_ms} ms; polling",
+                match state {
+                    DeviceState::Busy => "busy, still starting up",
+                    DeviceState::Error => "error state",
+                    DeviceState::Ready => "ready",
+                },
+                state.to_u8()
+            ),
+            Event::StepDone(s) => write!(f, "done: {s}"),
+            Event::Info(i) => i.fmt(f),
+            Event::Streaming => f.write_str("subscribed: scans follow"),
+            Event::Scan(s) => write!(
+                f,
+                "scan {} ({} Hz)",
+                s.header.scan_counter,
+                s.header.scan_frequency_hz()
+            ),
+            Event::BadScan(e) => write!(f, "scan dropped: {e}"),
+            Event::FrameDropped(e) => write!(f, "frame dropped: {e}"),
+            Event::Ignored { kind, name } => match kind {
+                Some(k) => write!(f, "skipped unrelated {k} {name}"),
+                None => f.write_str("skipped a frame that is not a telegram"),
+            },
+            Event::SensorError(e) => write!(f, "unsolicited {e}"),
+            Event::Reconnecting {
+                error,
+                failed_attempts,
+                retry_in_ms,
+            } => write!(
+                f,
+                "{error} (failed attempts: {failed_attempts}; re-connecting in {retry_in_ms} ms)"
+            ),
+            Event::Failed(e) => write!(f, "gave up: {e}"),
+        }
+    }
+}

@@ -552,3 +552,31 @@ fn session_memory_is_the_buffer_plus_a_few_hundred_bytes() {
     println!("Session<[u8; 16384]> = buffer + {extra} bytes");
     assert!(extra < 1024, "{extra}");
 }
+
+#[test]
+fn events_read_as_log_lines() {
+    let busy = Event::DeviceNotReady {
+        state: DeviceState::Busy,
+        waited_ms: 1200,
+    };
+    assert_eq!(
+        busy.to_string(),
+        "device not ready: busy, still starting up (SCdevicestate 0) for 1200 ms; polling"
+    );
+    assert_eq!(
+        Event::Info(DeviceInfo::FirmwareVersion(b"V1.80    ")).to_string(),
+        "firmware V1.80    "
+    );
+    assert_eq!(
+        Event::Info(DeviceInfo::OutputRange(RANGE)).to_string(),
+        "output range -5..185 deg, step 0.1667 deg"
+    );
+    let r = Event::Reconnecting {
+        error: SessionError::ScanTimeout { waited_ms: 1000 },
+        failed_attempts: 1,
+        retry_in_ms: 1000,
+    };
+    assert!(r
+        .to_string()
+        .starts_with("no scan for 1000 ms while streaming"));
+}
