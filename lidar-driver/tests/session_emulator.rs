@@ -96,7 +96,7 @@ fn survives_dropped_connection_and_reinitialises() {
         EmulatorConfig {
             faults: Faults {
                 drop_after_scans: Some(10),
-                max_drops: 1,
+                max_drops: Some(1),
                 ..Faults::default()
             },
             ..EmulatorConfig::default()

@@ -63,9 +63,9 @@ struct Cli {
     /// Close each connection after this many scans (at most --max-drops times).
     #[arg(long)]
     drop_after_scans: Option<u64>,
-    /// Connections dropped by --drop-after-scans at most.
-    #[arg(long, default_value_t = u32::MAX)]
-    max_drops: u32,
+    /// Connections dropped by --drop-after-scans at most (default: every connection).
+    #[arg(long)]
+    max_drops: Option<u32>,
     /// Send garbage before every n-th scan.
     #[arg(long)]
     garbage_every: Option<u64>,

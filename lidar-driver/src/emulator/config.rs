@@ -122,8 +122,9 @@ impl Default for DeviceIdentity {
 pub struct Faults {
     /// Close a connection after this many scans on it.
     pub drop_after_scans: Option<u64>,
-    /// How many connections are dropped that way at most (then streams run on).
-    pub max_drops: u32,
+    /// How many connections are dropped that way at most (then streams run on); `None` =
+    /// every connection.
+    pub max_drops: Option<u32>,
     /// Before every n-th scan, send garbage bytes (including stray start markers and a
     /// CoLa-B header with an impossible length).
     pub garbage_every: Option<u64>,

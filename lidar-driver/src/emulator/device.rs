@@ -350,7 +350,7 @@ impl<'s> Connection<'s> {
         if let Some(limit) = faults.drop_after_scans {
             if self.scans_here >= limit {
                 let dropped = self.shared.stats.snapshot().drops;
-                if dropped < faults.max_drops {
+                if faults.max_drops.is_none_or(|max| dropped < max) {
                     self.shared.stats.count(|s| s.drops += 1);
                     self.verdict = Verdict::Drop;
                 }

@@ -8,6 +8,10 @@
 //! emulator writes counters, timestamps and frequency like a live device; the channels are
 //! shaped by the client's `LMDscandatacfg` (echo mask, RSSI on/off, time block).
 //!
+//! Connections share the one source (two subscribed clients take turns on its scans) and the
+//! device settings (output range, `LMDscandatacfg`, scan configuration persist across
+//! connections, as on the device until power-off).
+//!
 //! Per connection the dialect is taken from the first frame ([`DialectMode::Auto`]) or fixed.
 //! Unknown names get `sFA` 2/3; changes without `SetAccessMode` level 3 get `sFA` 1 / 10;
 //! during the start-up delay everything but `SCdevicestate` gets `sFA 13` (busy).
