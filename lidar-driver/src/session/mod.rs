@@ -773,5 +773,5 @@ impl Core {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "std"))]
 mod tests;
