@@ -71,8 +71,9 @@ pub fn associate<M: MapQuery>(
 
 /// Like [`associate`] but keeps each wall point's segment from the last association and only
 /// re-projects onto it (no map search): valid while the pose has moved little since, and
-/// an order of magnitude cheaper. Points on landmarks are searched again (their nearest
-/// flank changes with small moves, and they are few); unassociated points stay so. Points
+/// an order of magnitude cheaper. With `search_landmarks`, points on landmarks are searched
+/// again (their nearest flank changes with small moves, and they are few); unassociated
+/// points stay so. Points
 /// farther than `gate_m` from their segment become unassociated. Entries must come from an
 /// earlier [`associate`] on the same points.
 pub fn reproject<M: MapQuery>(
@@ -80,6 +81,7 @@ pub fn reproject<M: MapQuery>(
     points: &[Point2],
     pose: Pose2,
     gate_m: f32,
+    search_landmarks: bool,
     out: &mut [Association],
 ) -> usize {
     let (s, c) = math::sin_cos(pose.theta_rad);
@@ -97,7 +99,7 @@ pub fn reproject<M: MapQuery>(
             continue;
         }
         let point = a.point;
-        let hit = if a.landmark {
+        let hit = if a.landmark && search_landmarks {
             map.nearest(world, gate_m)
                 .filter(|h| h.projection.distance_m.is_finite())
                 .map(|h| (h.segment, h.projection, h.kind.is_landmark()))
@@ -149,12 +151,14 @@ fn unpaired(world: Point2, gate_m: f32) -> Association {
     }
 }
 
-/// Decides between a full association and a cheap re-projection: full on the first
-/// `always_first` iterations and whenever the pose has moved more than the thresholds since
-/// the last full association (a point 20 m out moves 5 cm per 0.0025 rad).
+/// Decides between a full association and a cheap re-projection: full on the first call
+/// and whenever the pose has moved more than `MAX_SHIFT_M` / `MAX_TURN_RAD` since the last
+/// full association (a point 20 m out moves 5 cm per 0.0025 rad); landmark points are
+/// searched again when it moved more than a tenth of that since their last search.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct AssociationSchedule {
     last_full: Option<Pose2>,
+    last_landmark: Option<Pose2>,
 }
 
 impl AssociationSchedule {
@@ -165,7 +169,10 @@ impl AssociationSchedule {
 
     /// A schedule whose first call associates fully.
     pub const fn new() -> Self {
-        Self { last_full: None }
+        Self {
+            last_full: None,
+            last_landmark: None,
+        }
     }
 
     /// Associates (fully or by re-projection) at `pose`; returns the points associated.
@@ -177,15 +184,23 @@ impl AssociationSchedule {
         gate_m: f32,
         out: &mut [Association],
     ) -> usize {
-        let full = self.last_full.is_none_or(|last| {
-            math::hypot(pose.x_m - last.x_m, pose.y_m - last.y_m) > Self::MAX_SHIFT_M
-                || math::abs(math::wrap_angle(pose.theta_rad - last.theta_rad)) > Self::MAX_TURN_RAD
-        });
-        if full {
+        let moved = |last: Option<Pose2>, scale: f32| {
+            last.is_none_or(|l| {
+                math::hypot(pose.x_m - l.x_m, pose.y_m - l.y_m) > Self::MAX_SHIFT_M * scale
+                    || math::abs(math::wrap_angle(pose.theta_rad - l.theta_rad))
+                        > Self::MAX_TURN_RAD * scale
+            })
+        };
+        if moved(self.last_full, 1.0) {
             self.last_full = Some(pose);
+            self.last_landmark = Some(pose);
             associate(map, points, pose, gate_m, out)
         } else {
-            reproject(map, points, pose, gate_m, out)
+            let search = moved(self.last_landmark, 0.1);
+            if search {
+                self.last_landmark = Some(pose);
+            }
+            reproject(map, points, pose, gate_m, search, out)
         }
     }
 }

@@ -18,6 +18,8 @@ pub struct XScaling {
     pub offset_m: f32,
     /// Half the wall's x extent, metres; at least [`XScaling::MIN_SCALE_M`].
     pub scale_m: f32,
+    /// `1 / scale_m`, 1/m (a multiplication is cheaper than a division on every point).
+    pub inv_scale_per_m: f32,
 }
 
 impl XScaling {
@@ -27,20 +29,23 @@ impl XScaling {
     /// The scaling that maps `[min_x_m, max_x_m]` onto `[−1, 1]`.
     pub fn spanning(min_x_m: f32, max_x_m: f32) -> Self {
         let half = 0.5 * (max_x_m - min_x_m);
+        let scale_m = if half.is_finite() && half > Self::MIN_SCALE_M {
+            half
+        } else {
+            Self::MIN_SCALE_M
+        };
+        let offset_m = 0.5 * (max_x_m + min_x_m);
         Self {
-            offset_m: 0.5 * (max_x_m + min_x_m),
-            scale_m: if half.is_finite() && half > Self::MIN_SCALE_M {
-                half
-            } else {
-                Self::MIN_SCALE_M
-            },
+            offset_m: if offset_m.is_finite() { offset_m } else { 0.0 },
+            scale_m,
+            inv_scale_per_m: 1.0 / scale_m,
         }
     }
 
     /// The normalised abscissa of `x_m`.
     #[inline]
     pub fn normalise(&self, x_m: f32) -> f32 {
-        (x_m - self.offset_m) / self.scale_m
+        (x_m - self.offset_m) * self.inv_scale_per_m
     }
 }
 
@@ -68,7 +73,7 @@ impl Cubic {
     pub fn slope(&self, x_m: f32) -> f32 {
         let u = self.scaling.normalise(x_m);
         let [_, c1, c2, c3] = self.coefficients_m;
-        (c1 + u * (2.0 * c2 + u * 3.0 * c3)) / self.scaling.scale_m
+        (c1 + u * (2.0 * c2 + u * 3.0 * c3)) * self.scaling.inv_scale_per_m
     }
 
     /// Signed distance from the wall to `p`, metres, measured along the wall's normal
@@ -77,6 +82,24 @@ impl Cubic {
     pub fn signed_distance_m(&self, p: Point2) -> f32 {
         let s = self.slope(p.x_m);
         (p.y_m - self.eval(p.x_m)) / math::sqrt(1.0 + s * s)
+    }
+
+    /// Vertical residual `y − f(x)` and slope `f′(x)` at `p` in one evaluation.
+    #[inline]
+    pub fn residual_and_slope(&self, p: Point2) -> (f32, f32) {
+        let u = self.scaling.normalise(p.x_m);
+        let [c0, c1, c2, c3] = self.coefficients_m;
+        let y = c0 + u * (c1 + u * (c2 + u * c3));
+        let slope = (c1 + u * (2.0 * c2 + u * 3.0 * c3)) * self.scaling.inv_scale_per_m;
+        (p.y_m - y, slope)
+    }
+
+    /// True when `p` lies within `tol_m` of the wall along its normal (first order), without
+    /// a square root: `r² ≤ tol²·(1 + f′²)`.
+    #[inline]
+    pub fn within_m(&self, p: Point2, tol_m: f32) -> bool {
+        let (r, s) = self.residual_and_slope(p);
+        r * r <= tol_m * tol_m * (1.0 + s * s)
     }
 
     /// The unit tangent of the wall at `x_m` pointing towards increasing x (vehicle frame).

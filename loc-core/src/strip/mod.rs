@@ -281,12 +281,16 @@ fn label_point(
     if !ransac::usable(p, config.max_fit_range_m) {
         return PointLabel::OutOfRange;
     }
-    // Inward distance: positive into the tunnel (below the left wall, above the right one).
-    let l = left.map(|w| (PointLabel::LeftWall, -w.cubic.signed_distance_m(p)));
-    let r = right.map(|w| (PointLabel::RightWall, w.cubic.signed_distance_m(p)));
+    // Nearer wall by vertical residual (one polynomial evaluation each); the normal
+    // distance (a square root) only for that one. Inward: positive into the tunnel (below
+    // the left wall, above the right one).
+    let l = left.map(|w| (PointLabel::LeftWall, &w.cubic, -1.0f32));
+    let r = right.map(|w| (PointLabel::RightWall, &w.cubic, 1.0f32));
     let nearest = match (l, r) {
         (Some(l), Some(r)) => {
-            if math::abs(l.1) <= math::abs(r.1) {
+            let (rl, _) = l.1.residual_and_slope(p);
+            let (rr, _) = r.1.residual_and_slope(p);
+            if math::abs(rl) <= math::abs(rr) {
                 l
             } else {
                 r
@@ -295,6 +299,8 @@ fn label_point(
         (Some(w), None) | (None, Some(w)) => w,
         (None, None) => return PointLabel::Outlier,
     };
+    let (wall, cubic, sign) = nearest;
+    let nearest = (wall, sign * cubic.signed_distance_m(p));
     let (wall, inward_m) = nearest;
     if math::abs(inward_m) <= config.wall_tolerance_m {
         wall

@@ -102,10 +102,12 @@ pub(super) fn fit_wall<P: VehiclePoint>(
             .map_or(Point2::ORIGIN, VehiclePoint::vehicle_point);
         for p in points.iter().map(VehiclePoint::vehicle_point) {
             if usable(p, max_r) {
-                let d = cubic.signed_distance_m(p);
-                if math::abs(d) <= tol {
+                let (r, slope) = cubic.residual_and_slope(p);
+                // |normal distance| ≤ tol  ⇔  r² ≤ tol²·(1 + f′²), no square root.
+                let stretch = 1.0 + slope * slope;
+                if r * r <= tol_sq * stretch {
                     ls.add_weighted(p, spacing_weight(prev, p));
-                    sum_sq += d * d;
+                    sum_sq += r * r / stretch;
                 }
             }
             prev = p;
