@@ -4,6 +4,8 @@
 //! - `host-sim run [FILE] [--scenario NAME] [flags]`: one closed-loop run, a report or
 //!   `--json`, and files in `--out DIR`.
 //! - `host-sim export-map`: the stored map the localiser gets (postcard bytes or JSON).
+//! - `host-sim replay DIR`: localises from a recording (`run --record DIR`, or a real
+//!   vehicle's) and prints the same metrics.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,12 +18,15 @@ use host_sim::closed_loop::{RunLog, RunOptions};
 use host_sim::lidar::ScanRate;
 use host_sim::map_export;
 use host_sim::output::{self, MetricsJson};
+use host_sim::record;
+use host_sim::replay::{self, ReplaySources};
 use host_sim::report::{self, Column};
 use host_sim::scenario::named::{named, NAMES};
 use host_sim::scenario::overrides::Overrides;
 use host_sim::scenario::{MatcherChoice, Scenario};
 use host_sim::session::{run_scenario, EstimatorChoice};
 use host_sim::stored_map;
+use host_sim::visuals;
 
 #[derive(Parser)]
 #[command(
@@ -46,6 +51,8 @@ enum Command {
     Run(RunArgs),
     /// Writes the stored map of a scenario: postcard bytes (firmware) or JSON (people).
     ExportMap(ExportArgs),
+    /// Localises from a recording (run --record DIR, or a real vehicle's) and reports the metrics.
+    Replay(ReplayArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -122,15 +129,55 @@ struct RunArgs {
     /// Estimator under test.
     #[arg(long, value_enum, default_value = "localizer")]
     estimator: EstimatorArg,
-    /// Directory for trajectories.csv, metrics.json and scenario.toml.
+    /// Directory for trajectories.csv, metrics.json, scenario.toml, the plots (PNG, SVG) and run.mcap.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Record the drive as the vehicle would log it (LMS511 CoLa-B stream, odometry, ground
+    /// truth, map) into this directory, for `host-sim replay`.
+    #[arg(long)]
+    record: Option<PathBuf>,
     /// Print the metrics as one JSON object instead of the report.
     #[arg(long)]
     json: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Args)]
+struct ReplayArgs {
+    /// Recording directory (files by their standard names; see its README.txt).
+    dir: PathBuf,
+    /// Scanner recording instead of DIR/scanner.colab.bin: raw CoLa bytes, pcapng, pcap or .pcapng.json.
+    #[arg(long)]
+    scanner: Option<PathBuf>,
+    /// Scan times CSV (index,t_s) instead of DIR/scanner.colab.times.csv.
+    #[arg(long)]
+    scanner_times: Option<PathBuf>,
+    /// Odometry CSV instead of DIR/odometry.csv.
+    #[arg(long)]
+    odometry: Option<PathBuf>,
+    /// loc-core map file instead of DIR/map.postcard.
+    #[arg(long)]
+    map: Option<PathBuf>,
+    /// Scenario TOML instead of DIR/scenario.toml (sensor mounting, localiser settings, tunnel).
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Ground-truth CSV instead of DIR/ground_truth.csv.
+    #[arg(long)]
+    truth: Option<PathBuf>,
+    /// Initial pose CSV instead of DIR/initial_pose.csv.
+    #[arg(long)]
+    initial_pose: Option<PathBuf>,
+    /// Estimator to replay.
+    #[arg(long, value_enum, default_value = "localizer")]
+    estimator: EstimatorArg,
+    /// Directory for estimates.csv and, with ground truth, trajectories.csv, metrics.json, plots and run.mcap.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print the metrics as one JSON object instead of the report.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -210,6 +257,7 @@ fn run_with_progress(
     est: EstimatorChoice,
     label: &str,
     show: bool,
+    keep_scans: bool,
 ) -> Result<RunLog, String> {
     let bar = progress_bar(label, show);
     let started = std::time::Instant::now();
@@ -224,7 +272,7 @@ fn run_with_progress(
         }
     };
     let options = RunOptions {
-        keep_scans: false,
+        keep_scans,
         progress: Some(&cb),
     };
     let log = run_scenario(s, est, &options).map_err(|e| e.to_string());
@@ -240,7 +288,9 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         EstimatorArg::Localizer => EstimatorChoice::Localizer,
         EstimatorArg::Odometry => EstimatorChoice::OdometryOnly,
     };
-    let log = run_with_progress(&s, est, &s.name, !a.quiet)?;
+    // Recordings, scans in run.mcap: the run keeps its scans (about 2.3 kB each).
+    let keep = a.out.is_some() || a.record.is_some();
+    let log = run_with_progress(&s, est, &s.name, !a.quiet, keep)?;
     let m = log.metrics();
     if a.json {
         out(&MetricsJson::new(&log, &m).to_json());
@@ -248,7 +298,116 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         out(&report::run_report(&log, &m));
     }
     if let Some(dir) = &a.out {
-        let files = output::write_run(dir, "", &log, &m).map_err(|e| e.to_string())?;
+        let mut files = output::write_run(dir, "", &log, &m).map_err(|e| e.to_string())?;
+        let (map, _) = record::scenario_map(&s).map_err(|e| e.to_string())?;
+        files.extend(visuals::write_visuals(dir, &log, &map)?);
+        if !a.json {
+            for f in files {
+                out(&format!("wrote {}", f.display()));
+            }
+        }
+    }
+    if let Some(dir) = &a.record {
+        let (_, map_file) = record::scenario_map(&s).map_err(|e| e.to_string())?;
+        let files = record::write_recording(dir, &log, &map_file).map_err(|e| e.to_string())?;
+        if !a.json {
+            out(&format!(
+                "recorded {} scans, {} odometry readings into {} ({} files; replay with `host-sim replay {}`)",
+                log.scans.len(),
+                log.odometry.len(),
+                dir.display(),
+                files.len(),
+                dir.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
+    let mut src = match ReplaySources::in_dir(&a.dir) {
+        Ok(s) => s,
+        // Every file given by flag: the directory only collects outputs.
+        Err(_)
+            if a.scanner.is_some()
+                && a.odometry.is_some()
+                && a.map.is_some()
+                && a.scenario.is_some() =>
+        {
+            ReplaySources {
+                scanner: PathBuf::new(),
+                scanner_times: None,
+                odometry: PathBuf::new(),
+                map: PathBuf::new(),
+                scenario: PathBuf::new(),
+                initial_pose: None,
+                ground_truth: None,
+            }
+        }
+        Err(e) => return Err(e.to_string()),
+    };
+    let set = |slot: &mut PathBuf, v: &Option<PathBuf>| {
+        if let Some(p) = v {
+            *slot = p.clone();
+        }
+    };
+    set(&mut src.scanner, &a.scanner);
+    set(&mut src.odometry, &a.odometry);
+    set(&mut src.map, &a.map);
+    set(&mut src.scenario, &a.scenario);
+    if a.scanner_times.is_some() || a.scanner.is_some() {
+        src.scanner_times = a.scanner_times.clone();
+    }
+    if a.truth.is_some() {
+        src.ground_truth = a.truth.clone();
+    }
+    if a.initial_pose.is_some() {
+        src.initial_pose = a.initial_pose.clone();
+    }
+    let est = match a.estimator {
+        EstimatorArg::Localizer => EstimatorChoice::Localizer,
+        EstimatorArg::Odometry => EstimatorChoice::OdometryOnly,
+    };
+    let rep = replay::replay(&src, est).map_err(|e| e.to_string())?;
+    let has_truth = !rep.log.samples.is_empty();
+    let m = rep.log.metrics();
+    if a.json {
+        if has_truth {
+            out(&MetricsJson::new(&rep.log, &m).to_json());
+        } else {
+            return Err("no ground truth to score against: --json needs ground_truth.csv".into());
+        }
+    } else {
+        let sc = &rep.source;
+        out(&format!(
+            "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged) with {} odometry readings",
+            sc.scans, sc.format, sc.time_source, sc.other_frames, sc.bad_frames, sc.odometry_readings
+        ));
+        if has_truth {
+            out(&format!(
+                "{} scans scored against ground truth\n",
+                sc.scored_scans
+            ));
+            out(&report::run_report(&rep.log, &m));
+        } else if let Some(last) = rep.steps.last() {
+            out(&format!(
+                "no ground truth: no metrics. Last estimate at t = {:.3} s: x {:.3} m, y {:.3} m, heading {:.4} rad, status {}",
+                last.t_s, last.estimate.x_m, last.estimate.y_m, last.estimate.theta_rad, last.status
+            ));
+        }
+    }
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let est_path = dir.join("estimates.csv");
+        let mut buf = Vec::new();
+        replay::write_estimates_csv(&rep.steps, &mut buf).map_err(|e| e.to_string())?;
+        write_file(&est_path, &buf)?;
+        let mut files = vec![est_path];
+        if has_truth {
+            files.extend(output::write_run(dir, "", &rep.log, &m).map_err(|e| e.to_string())?);
+            files.extend(visuals::write_visuals(dir, &rep.log, &rep.map)?);
+        }
         if !a.json {
             for f in files {
                 out(&format!("wrote {}", f.display()));
@@ -267,9 +426,27 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
     bare.landmarks.genes = None;
     let mut missing = base.clone();
     missing.landmarks.missing_every = Some(5);
-    let with = run_with_progress(&base, EstimatorChoice::Localizer, "P1 landmarks", true)?;
-    let holes = run_with_progress(&missing, EstimatorChoice::Localizer, "1 in 5 missing", true)?;
-    let without = run_with_progress(&bare, EstimatorChoice::Localizer, "no landmarks", true)?;
+    let with = run_with_progress(
+        &base,
+        EstimatorChoice::Localizer,
+        "P1 landmarks",
+        true,
+        false,
+    )?;
+    let holes = run_with_progress(
+        &missing,
+        EstimatorChoice::Localizer,
+        "1 in 5 missing",
+        true,
+        false,
+    )?;
+    let without = run_with_progress(
+        &bare,
+        EstimatorChoice::Localizer,
+        "no landmarks",
+        true,
+        false,
+    )?;
     let (mw, mh, mo) = (with.metrics(), holes.metrics(), without.metrics());
     out("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n");
     out(&format!("{}\n", report::scenario_line(&with)));
@@ -363,6 +540,7 @@ fn main() -> ExitCode {
         Command::Demo { seed } => cmd_demo(*seed),
         Command::Run(a) => cmd_run(a),
         Command::ExportMap(a) => cmd_export(a),
+        Command::Replay(a) => cmd_replay(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,113 @@
+//! Plot (a): the stored map (walls, landmarks) with the true, estimated and odometry paths,
+//! world frame. The axes span everything drawn; for a long tunnel they cannot be to scale
+//! (a 1 km × 5 m tunnel would be a line), and the caption says so.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::map_lines::MapLines;
+use super::style::{self, msg, FONT};
+use crate::metrics::Sample;
+
+/// A path: label, colour, and which pose of a sample it follows.
+type PathSeries = (&'static str, RGBColor, fn(&Sample) -> (f64, f64));
+
+/// Draws the map view onto `root`.
+pub fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    lines: &MapLines,
+    samples: &[Sample],
+) -> Result<(), String> {
+    root.fill(&WHITE).map_err(msg)?;
+    let paths = samples
+        .iter()
+        .flat_map(|s| [s.truth, s.estimate, s.odometry])
+        .map(|p| (p.x_m, p.y_m));
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, y) in lines
+        .points()
+        .chain(paths)
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+    {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    if x0 > x1 {
+        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    }
+    let pad = 0.03 * (x1 - x0).max(y1 - y0).max(1.0);
+    let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
+    let (w, h) = root.dim_in_pixel();
+    // Metres per pixel along each axis (plot area about 85 % of the image).
+    let sx = (x1 - x0) / (0.85 * f64::from(w));
+    let sy = (y1 - y0) / (0.85 * f64::from(h));
+    let to_scale = (sx / sy - 1.0).abs() < 0.25;
+    let caption = if to_scale {
+        format!("{title}: map and paths")
+    } else {
+        format!("{title}: map and paths (axes not to scale)")
+    };
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, (FONT, 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(msg)?;
+    chart
+        .configure_mesh()
+        .x_desc("world x (m)")
+        .y_desc("world y (m)")
+        .label_style((FONT, 14))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(msg)?;
+    let wall = ShapeStyle::from(&style::WALL).stroke_width(2);
+    chart
+        .draw_series(LineSeries::new(lines.left_wall.iter().copied(), wall))
+        .map_err(msg)?
+        .label("walls")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], wall));
+    chart
+        .draw_series(LineSeries::new(lines.right_wall.iter().copied(), wall))
+        .map_err(msg)?;
+    let lm = ShapeStyle::from(&style::LANDMARK).stroke_width(3);
+    for (i, l) in lines.landmarks.iter().enumerate() {
+        let s = chart
+            .draw_series(LineSeries::new(l.iter().copied(), lm))
+            .map_err(msg)?;
+        if i == 0 {
+            s.label("landmarks")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], lm));
+        }
+    }
+    let series: [PathSeries; 3] = [
+        ("odometry alone", style::ODOMETRY, |s| {
+            (s.odometry.x_m, s.odometry.y_m)
+        }),
+        ("ground truth", style::TRUTH, |s| (s.truth.x_m, s.truth.y_m)),
+        ("localiser", style::ESTIMATE, |s| {
+            (s.estimate.x_m, s.estimate.y_m)
+        }),
+    ];
+    for (label, colour, pick) in series {
+        let st = ShapeStyle::from(&colour).stroke_width(2);
+        chart
+            .draw_series(LineSeries::new(samples.iter().map(pick), st))
+            .map_err(msg)?
+            .label(label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], st));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(msg)?;
+    root.present().map_err(msg)
+}

@@ -1,0 +1,395 @@
+//! `host-sim replay DIR`: localises from a recording (one written by `run --record`, or a
+//! real vehicle's) through lidar-driver and loc-core, driving the very estimator a live run
+//! uses ([`LocCoreEstimator`]) in the same order (every odometry reading up to a scan's time,
+//! then the scan), and scores it with the same metrics ([`crate::metrics`]) when ground truth
+//! is there.
+//!
+//! A replay of a simulated run gives the run's figures: the scans carry the same `u16`
+//! millimetre ranges the live localiser got, the odometry CSV and the initial pose hold the
+//! run's `f64` values exactly, and the odometry-alone baseline is integrated from the same
+//! readings by the same arc integration as the simulator's odometry.
+
+pub mod scan_source;
+pub mod truth;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use loc_core::map::{MapError, TunnelMap};
+
+use crate::closed_loop::{Estimator, OdometryOnly, RunLog, WorldSummary};
+use crate::estimator::LocCoreEstimator;
+use crate::metrics::Sample;
+use crate::record::csv_table::CsvError;
+use crate::record::initial_pose::{self, InitialPose};
+use crate::record::{files, odometry_csv, truth_csv};
+use crate::scenario::{Scenario, ScenarioError};
+use crate::session::EstimatorChoice;
+use crate::vehicle::SimPose;
+
+use scan_source::{RecordedScans, ScanSourceError};
+
+/// The files a replay reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplaySources {
+    /// Scanner stream: raw CoLa bytes, pcap/pcapng or `.pcapng.json`.
+    pub scanner: PathBuf,
+    /// Scan receive times (`index, t_s`), if any.
+    pub scanner_times: Option<PathBuf>,
+    /// Odometry CSV.
+    pub odometry: PathBuf,
+    /// loc-core map file.
+    pub map: PathBuf,
+    /// Scenario TOML (sensor, localiser settings, tunnel for the metrics).
+    pub scenario: PathBuf,
+    /// Initial pose CSV; without it the first ground-truth row and the scenario's σ are used.
+    pub initial_pose: Option<PathBuf>,
+    /// Ground truth CSV; without it there are no metrics.
+    pub ground_truth: Option<PathBuf>,
+}
+
+/// Scanner file names looked for in a directory, in this order.
+pub const SCANNER_CANDIDATES: [&str; 5] = [
+    files::SCANNER,
+    "scanner.pcapng",
+    "scanner.pcapng.json",
+    "scanner.pcap",
+    "scanner.colab.txt",
+];
+
+impl ReplaySources {
+    /// The files of a recording directory by their standard names ([`files`]); the scanner
+    /// stream may also be `scanner.pcapng`, `scanner.pcapng.json` or `scanner.pcap`.
+    pub fn in_dir(dir: &Path) -> Result<Self, ReplayError> {
+        if !dir.is_dir() {
+            return Err(ReplayError::NotADirectory(dir.to_path_buf()));
+        }
+        let existing = |name: &str| Some(dir.join(name)).filter(|p| p.is_file());
+        let required = |name: &'static str| {
+            existing(name).ok_or(ReplayError::MissingFile {
+                dir: dir.to_path_buf(),
+                name,
+            })
+        };
+        Ok(Self {
+            scanner: SCANNER_CANDIDATES.iter().find_map(|n| existing(n)).ok_or(
+                ReplayError::MissingFile {
+                    dir: dir.to_path_buf(),
+                    name: files::SCANNER,
+                },
+            )?,
+            scanner_times: existing(files::SCANNER_TIMES),
+            odometry: required(files::ODOMETRY)?,
+            map: required(files::MAP)?,
+            scenario: required(files::SCENARIO)?,
+            initial_pose: existing(files::INITIAL_POSE),
+            ground_truth: existing(files::GROUND_TRUTH),
+        })
+    }
+}
+
+/// Why a replay could not run.
+#[derive(Debug)]
+pub enum ReplayError {
+    /// The path is not a directory.
+    NotADirectory(PathBuf),
+    /// A required file is missing.
+    MissingFile {
+        /// The directory.
+        dir: PathBuf,
+        /// The file's standard name.
+        name: &'static str,
+    },
+    /// A file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The scanner stream is unusable.
+    Scans(ScanSourceError),
+    /// A CSV file is unusable.
+    Csv(CsvError),
+    /// The scenario is wrong.
+    Scenario(ScenarioError),
+    /// The map file is not a loc-core map.
+    Map {
+        /// The file.
+        path: PathBuf,
+        /// loc-core's reason.
+        source: MapError,
+    },
+    /// Neither an initial pose nor ground truth to start from.
+    NoInitialPose,
+}
+
+impl fmt::Display for ReplayError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ReplayError::NotADirectory(p) => write!(
+                f,
+                "{} is not a directory (give a directory written by `host-sim run --record`)",
+                p.display()
+            ),
+            ReplayError::MissingFile { dir, name } => write!(
+                f,
+                "{} has no {name} (see README.txt of a recording for the files a replay needs)",
+                dir.display()
+            ),
+            ReplayError::Io { path, source } => {
+                write!(f, "cannot read {}: {source}", path.display())
+            }
+            ReplayError::Scans(e) => write!(f, "{e}"),
+            ReplayError::Csv(e) => write!(f, "{e}"),
+            ReplayError::Scenario(e) => write!(f, "{e}"),
+            ReplayError::Map { path, source } => write!(
+                f,
+                "{} is not a usable loc-core map file: {source} (write one with `host-sim export-map`)",
+                path.display()
+            ),
+            ReplayError::NoInitialPose => write!(
+                f,
+                "no initial_pose.csv and no ground truth: give the pose the vehicle starts at in initial_pose.csv"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ReplayError {}
+
+impl From<ScanSourceError> for ReplayError {
+    fn from(e: ScanSourceError) -> Self {
+        ReplayError::Scans(e)
+    }
+}
+
+impl From<CsvError> for ReplayError {
+    fn from(e: CsvError) -> Self {
+        ReplayError::Csv(e)
+    }
+}
+
+impl From<ScenarioError> for ReplayError {
+    fn from(e: ScenarioError) -> Self {
+        ReplayError::Scenario(e)
+    }
+}
+
+/// The estimator's output after one recorded scan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayStep {
+    /// Scan time, seconds.
+    pub t_s: f64,
+    /// The estimate, world frame.
+    pub estimate: SimPose,
+    /// `(σx m, σy m, σθ rad)` of the estimate.
+    pub sigma: (f64, f64, f64),
+    /// Status label.
+    pub status: String,
+    /// Dead reckoning from the odometry log alone at the scan.
+    pub odometry: SimPose,
+    /// Time the estimator took for the scan, microseconds.
+    pub update_us: f64,
+}
+
+/// The result of a replay.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// Every scan's estimate.
+    pub steps: Vec<ReplayStep>,
+    /// The run log for the metrics, plots and output files: one sample (and its scan) per
+    /// scan that has ground truth (none without ground truth).
+    pub log: RunLog,
+    /// The decoded scanner recording (scans dropped after use; counts and sources kept).
+    pub source: ScanSummary,
+    /// The stored map the localiser used.
+    pub map: Box<TunnelMap>,
+}
+
+/// What the scanner recording held.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanSummary {
+    /// Scans replayed.
+    pub scans: usize,
+    /// Odometry readings fed.
+    pub odometry_readings: usize,
+    /// Scans with ground truth (scored).
+    pub scored_scans: usize,
+    /// File format of the scanner recording.
+    pub format: lidar_driver::recording::RecordingFormat,
+    /// Where scan times came from.
+    pub time_source: scan_source::TimeSource,
+    /// Non-scan frames skipped.
+    pub other_frames: usize,
+    /// Damaged frames dropped by the framer.
+    pub bad_frames: usize,
+}
+
+/// Runs a replay with the chosen estimator.
+pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay, ReplayError> {
+    let wall = Instant::now();
+    let scenario = Scenario::from_file(&sources.scenario)?;
+    let world = scenario.build_world()?;
+    let map_bytes = std::fs::read(&sources.map).map_err(|source| ReplayError::Io {
+        path: sources.map.clone(),
+        source,
+    })?;
+    let mut map = Box::<TunnelMap>::default();
+    map.load_from_bytes(&map_bytes)
+        .map_err(|source| ReplayError::Map {
+            path: sources.map.clone(),
+            source,
+        })?;
+    let recorded = scan_source::read_scans(
+        &sources.scanner,
+        sources.scanner_times.as_deref(),
+        &scenario.lidar,
+    )?;
+    let odometry = odometry_csv::read(&sources.odometry)?;
+    let truth = match &sources.ground_truth {
+        Some(p) => Some(truth_csv::read(p)?),
+        None => None,
+    };
+    let initial = match &sources.initial_pose {
+        Some(p) => initial_pose::read(p)?,
+        None => None,
+    };
+    let initial = match (initial, truth.as_ref().and_then(|t| t.first())) {
+        (Some(i), _) => i,
+        (None, Some(first)) => InitialPose {
+            pose: first.pose,
+            sigma_xy_m: scenario.localizer.initial_sigma_m.max(0.01),
+            sigma_theta_rad: scenario.localizer.initial_sigma_rad.max(0.002),
+        },
+        (None, None) => return Err(ReplayError::NoInitialPose),
+    };
+    // Dead reckoning starts where the truth starts (as the simulator's odometry does), or at
+    // the initial pose without truth.
+    let start = truth
+        .as_ref()
+        .and_then(|t| t.first())
+        .map_or(initial.pose, |r| r.pose);
+
+    let (steps, name) = match choice {
+        EstimatorChoice::OdometryOnly => {
+            let mut est = OdometryOnly::default();
+            let steps = drive(&mut est, initial, start, &odometry, &recorded);
+            (steps, est.name())
+        }
+        EstimatorChoice::Localizer => {
+            let mut est = LocCoreEstimator::new(&map, &scenario);
+            let steps = drive(&mut est, initial, start, &odometry, &recorded);
+            (steps, est.name())
+        }
+    };
+    let line = world.centerline().clone();
+    let scored = match &truth {
+        Some(rows) => truth::samples(&steps, rows, &line, scenario.drive.start_m),
+        None => Vec::new(),
+    };
+    let statuses = scored
+        .iter()
+        .filter_map(|(i, _)| steps.get(*i).map(|x| x.status.clone()))
+        .collect();
+    // The scored scans stay with their samples (for the MCAP file).
+    let scans = scored
+        .iter()
+        .filter_map(|(i, _)| recorded.scans.get(*i).cloned())
+        .collect();
+    let samples: Vec<Sample> = scored.into_iter().map(|(_, s)| s).collect();
+    let source = ScanSummary {
+        scans: recorded.scans.len(),
+        odometry_readings: odometry.len(),
+        scored_scans: samples.len(),
+        format: recorded.format,
+        time_source: recorded.time_source,
+        other_frames: recorded.other_frames,
+        bad_frames: recorded.bad_frames,
+    };
+    let log = RunLog {
+        scenario,
+        estimator: name,
+        world: WorldSummary::of(&world),
+        centerline: line,
+        samples,
+        statuses,
+        scans,
+        odometry: Vec::new(),
+        start,
+        initial_estimate: (initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad),
+        wall_time_s: wall.elapsed().as_secs_f64(),
+        raycast_time_s: 0.0,
+    };
+    Ok(Replay {
+        steps,
+        log,
+        source,
+        map,
+    })
+}
+
+/// Feeds the estimator like the closed loop does: reset, then per scan every odometry
+/// reading up to the scan's time (inclusive) and the scan.
+fn drive(
+    est: &mut dyn Estimator,
+    initial: InitialPose,
+    start: SimPose,
+    odometry: &[crate::vehicle::odometry::OdometrySample],
+    recorded: &RecordedScans,
+) -> Vec<ReplayStep> {
+    est.reset(initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad);
+    let mut odo_pose = start;
+    let mut next = 0usize;
+    let mut steps = Vec::with_capacity(recorded.scans.len());
+    for scan in &recorded.scans {
+        while let Some(r) = odometry.get(next).filter(|r| r.t_s <= scan.t_s) {
+            est.odometry(r);
+            // The simulator's odometry integrates its readings the same way.
+            odo_pose = odo_pose.integrate(r.v_mps, 0.0, r.omega_radps, r.dt_s);
+            next += 1;
+        }
+        let t0 = Instant::now();
+        let out = est.scan(scan);
+        steps.push(ReplayStep {
+            t_s: scan.t_s,
+            estimate: out.pose,
+            sigma: out.sigma,
+            status: out.status,
+            odometry: odo_pose,
+            update_us: t0.elapsed().as_secs_f64() * 1e6,
+        });
+    }
+    steps
+}
+
+/// Writes the estimates (`estimates.csv`: one row per scan, with or without ground truth).
+pub fn write_estimates_csv(
+    steps: &[ReplayStep],
+    w: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "t_s,est_x_m,est_y_m,est_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad,odo_x_m,odo_y_m,odo_theta_rad,status,update_us"
+    )?;
+    for s in steps {
+        writeln!(
+            w,
+            "{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{},{:.1}",
+            s.t_s,
+            s.estimate.x_m,
+            s.estimate.y_m,
+            s.estimate.theta_rad,
+            s.sigma.0,
+            s.sigma.1,
+            s.sigma.2,
+            s.odometry.x_m,
+            s.odometry.y_m,
+            s.odometry.theta_rad,
+            s.status,
+            s.update_us
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,307 @@
+//! Scans of a recorded scanner stream, decoded through lidar-driver and turned into the
+//! simulator's [`LidarScan`] exactly as a live run makes them (the same `u16` millimetre
+//! ranges, the same beam layout), with their times.
+//!
+//! The stream may be raw CoLa-B or CoLa-A bytes, pcap/pcapng, or SICK's `.pcapng.json`
+//! (lidar-driver's [`Recording`] detects which). Scan times come from, in this order:
+//! 1. a sidecar CSV (`scanner.colab.times.csv`: `index, t_s`), one row per scan telegram;
+//! 2. the capture's own time stamps (pcap/pcapng: seconds since the epoch; `.pcapng.json`:
+//!    seconds since the capture started);
+//! 3. the scanner's clock: its "time since start-up" field in seconds (wraps every 71.6 min;
+//!    unwrapped here).
+//!
+//! The odometry log must be on the same clock as the scan times.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use lidar_driver::recording::{Direction, Recording, RecordingError, RecordingFormat};
+use lidar_driver::ScanData;
+
+use crate::lidar::{first_beam_angle_rad, LidarScan, LidarSpec, FIRST_BEAM_1E4_DEG};
+use crate::record::csv_table::{cell, CsvError, CsvTable};
+
+/// Where the scan times came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TimeSource {
+    /// The sidecar CSV's `t_s`.
+    Sidecar,
+    /// The capture file's time stamps.
+    Capture,
+    /// The scanner's time since start-up.
+    ScannerClock,
+}
+
+/// The decoded scans of a recording.
+#[derive(Debug, Clone)]
+pub struct RecordedScans {
+    /// Scans in stream order, `t_s` set from [`RecordedScans::time_source`].
+    pub scans: Vec<LidarScan>,
+    /// The recording's file format.
+    pub format: RecordingFormat,
+    /// Where the times came from.
+    pub time_source: TimeSource,
+    /// Frames in the recording that were not scans (answers, requests), skipped.
+    pub other_frames: usize,
+    /// Frames the framer dropped (bad checksum, bad length, truncated).
+    pub bad_frames: usize,
+}
+
+/// Why a scanner recording could not be used.
+#[derive(Debug)]
+pub enum ScanSourceError {
+    /// The recording could not be read.
+    Recording {
+        /// The file.
+        path: PathBuf,
+        /// lidar-driver's reason.
+        source: RecordingError,
+    },
+    /// A scan telegram is malformed.
+    Scan {
+        /// Index of the scan telegram.
+        index: usize,
+        /// The decoder's reason.
+        reason: String,
+    },
+    /// A scan has no DIST1 channel.
+    NoDistances {
+        /// Index of the scan.
+        index: usize,
+    },
+    /// A scan's beam layout differs from the sensor the scenario describes.
+    Layout {
+        /// Index of the scan.
+        index: usize,
+        /// `(start 1/10000°, step 1/10000°, beams)` in the telegram.
+        found: (i32, u32, usize),
+        /// What the scenario's LMS511 rate gives.
+        expected: (i32, u32, usize),
+    },
+    /// The recording holds no scans.
+    NoScans {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The sidecar CSV is unreadable.
+    Sidecar(CsvError),
+    /// The sidecar has a different number of rows than there are scans.
+    SidecarCount {
+        /// Rows in the sidecar.
+        rows: usize,
+        /// Scans in the stream.
+        scans: usize,
+    },
+}
+
+impl fmt::Display for ScanSourceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ScanSourceError::Recording { path, source } => {
+                write!(f, "{}: {source}", path.display())
+            }
+            ScanSourceError::Scan { index, reason } => {
+                write!(f, "scan telegram {index} is malformed: {reason}")
+            }
+            ScanSourceError::NoDistances { index } => write!(
+                f,
+                "scan telegram {index} has no DIST1 channel (configure the scanner's output with LMDscandatacfg: first echo)"
+            ),
+            ScanSourceError::Layout {
+                index,
+                found,
+                expected,
+            } => write!(
+                f,
+                "scan {index} covers start {} / step {} (1/10000 deg) with {} beams, but the scenario's LMS511 gives {} / {} with {}: set [lidar] rate in the scenario to the scanner's frequency, or the scanner to -5..185 deg",
+                found.0, found.1, found.2, expected.0, expected.1, expected.2
+            ),
+            ScanSourceError::NoScans { path } => {
+                write!(f, "{} holds no LMDscandata telegram", path.display())
+            }
+            ScanSourceError::Sidecar(e) => write!(f, "{e}"),
+            ScanSourceError::SidecarCount { rows, scans } => write!(
+                f,
+                "the scan times file has {rows} rows but the stream holds {scans} scans: they do not belong together"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ScanSourceError {}
+
+/// Millimetres of a raw DIST value with the channel's scale (clamped to the `u16` the
+/// simulator's scans hold: ranges past 65.535 m read as 65.535 m).
+fn to_mm(raw: u16, scale: f32, offset: f32) -> u16 {
+    if scale == 1.0 && offset == 0.0 {
+        return raw;
+    }
+    let mm = f64::from(raw) * f64::from(scale) + f64::from(offset);
+    if raw == 0 || !mm.is_finite() || mm <= 0.0 {
+        0
+    } else {
+        mm.round().min(f64::from(u16::MAX)) as u16
+    }
+}
+
+/// Reads the scans of `path` for a sensor described by `lidar`; `sidecar` is the optional
+/// times CSV.
+pub fn read_scans(
+    path: &Path,
+    sidecar: Option<&Path>,
+    lidar: &LidarSpec,
+) -> Result<RecordedScans, ScanSourceError> {
+    let rec = Recording::read_file(path).map_err(|source| ScanSourceError::Recording {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let frames = rec.frames();
+    let rate = lidar.rate;
+    let expected = (FIRST_BEAM_1E4_DEG, rate.step_1e4_deg(), rate.beam_count());
+    let mut scans = Vec::new();
+    let mut capture_times = Vec::new();
+    let mut clock_us = Vec::new();
+    let mut other_frames = 0usize;
+    for f in &frames.frames {
+        if f.direction == Direction::HostToSensor {
+            other_frames += 1;
+            continue;
+        }
+        let index = scans.len();
+        let scan = match ScanData::new_checked(f.frame()) {
+            Ok(s) => s,
+            Err(lidar_driver::ScanError::NotScanData { .. }) => {
+                other_frames += 1;
+                continue;
+            }
+            Err(e) => {
+                return Err(ScanSourceError::Scan {
+                    index,
+                    reason: e.to_string(),
+                })
+            }
+        };
+        let dist = scan.dist1().ok_or(ScanSourceError::NoDistances { index })?;
+        let h = dist.header;
+        let found = (h.start_angle_1e4_deg, u32::from(h.step_1e4_deg), dist.len());
+        if found != expected {
+            return Err(ScanSourceError::Layout {
+                index,
+                found,
+                expected,
+            });
+        }
+        let ranges_mm = dist
+            .values()
+            .map(|v| to_mm(v, h.scale_factor, h.scale_offset))
+            .collect();
+        scans.push(LidarScan {
+            t_s: 0.0,
+            ranges_mm,
+            start_angle_rad: first_beam_angle_rad(),
+            step_rad: rate.step_rad(),
+        });
+        capture_times.push(f.time_s);
+        clock_us.push(scan.header.time_since_startup_us);
+    }
+    if scans.is_empty() {
+        return Err(ScanSourceError::NoScans {
+            path: path.to_path_buf(),
+        });
+    }
+    let time_source = if let Some(p) = sidecar {
+        let t = CsvTable::read(p).map_err(ScanSourceError::Sidecar)?;
+        let c = t.column("t_s").map_err(ScanSourceError::Sidecar)?;
+        if t.rows().len() != scans.len() {
+            return Err(ScanSourceError::SidecarCount {
+                rows: t.rows().len(),
+                scans: scans.len(),
+            });
+        }
+        for (s, r) in scans.iter_mut().zip(t.rows()) {
+            s.t_s = cell(r, c);
+        }
+        TimeSource::Sidecar
+    } else if capture_times.iter().all(Option::is_some) {
+        for (s, t) in scans.iter_mut().zip(&capture_times) {
+            s.t_s = t.unwrap_or(0.0);
+        }
+        TimeSource::Capture
+    } else {
+        // Unwrap the u32 µs counter.
+        let mut wraps = 0u64;
+        let mut prev = None;
+        for (s, &us) in scans.iter_mut().zip(&clock_us) {
+            if prev.is_some_and(|p| us < p) {
+                wraps += 1;
+            }
+            prev = Some(us);
+            s.t_s = (wraps * (1u64 << 32) + u64::from(us)) as f64 / 1e6;
+        }
+        TimeSource::ScannerClock
+    };
+    Ok(RecordedScans {
+        scans,
+        format: rec.format,
+        time_source,
+        other_frames,
+        bad_frames: frames.errors.len(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lidar::ScanRate;
+
+    const CAPTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/captures/");
+
+    #[test]
+    fn real_lms511_capture_decodes_in_both_formats_with_their_clocks() {
+        let spec = LidarSpec::default();
+        let raw = read_scans(
+            &Path::new(CAPTURES).join("lms511_20210302_colab.sensor_to_host.colab.bin"),
+            None,
+            &spec,
+        )
+        .unwrap();
+        let json = read_scans(
+            &Path::new(CAPTURES).join("lms511_20210302_colab.pcapng.json"),
+            None,
+            &spec,
+        )
+        .unwrap();
+        assert_eq!(raw.scans.len(), 174);
+        assert_eq!(json.scans.len(), 174);
+        assert_eq!(raw.time_source, TimeSource::ScannerClock);
+        assert_eq!(json.time_source, TimeSource::Capture);
+        assert_eq!(raw.scans[0].ranges_mm[..3], [1305, 1299, 1307]);
+        for (a, b) in raw.scans.iter().zip(&json.scans) {
+            assert_eq!(a.ranges_mm, b.ranges_mm);
+        }
+        // 25 Hz on the scanner's clock.
+        let dt = raw.scans[1].t_s - raw.scans[0].t_s;
+        assert!((dt - 0.04).abs() < 0.002, "{dt}");
+        // The wrong rate in the scenario is named, not misread.
+        let wrong = LidarSpec {
+            rate: ScanRate::Hz50,
+            ..spec
+        };
+        let e = read_scans(
+            &Path::new(CAPTURES).join("lms511_20210302_colab.sensor_to_host.colab.bin"),
+            None,
+            &wrong,
+        )
+        .unwrap_err();
+        assert!(matches!(e, ScanSourceError::Layout { index: 0, .. }), "{e}");
+        assert!(e.to_string().contains("rate"));
+    }
+
+    #[test]
+    fn scale_factor_two_and_no_echo() {
+        assert_eq!(to_mm(1234, 1.0, 0.0), 1234);
+        assert_eq!(to_mm(1234, 2.0, 0.0), 2468);
+        assert_eq!(to_mm(0, 2.0, 0.0), 0);
+        assert_eq!(to_mm(40_000, 2.0, 0.0), u16::MAX);
+    }
+}
