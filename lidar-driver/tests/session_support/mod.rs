@@ -52,6 +52,8 @@ pub struct Seen {
     pub scans: Vec<(Vec<u16>, Vec<u16>)>,
     /// Scan counters.
     pub counters: Vec<u16>,
+    /// Scan frequency fields, 1/100 Hz.
+    pub frequencies_1e2_hz: Vec<u32>,
     /// The final event if the loop stopped on `Failed`.
     pub failed: Option<String>,
 }
@@ -78,6 +80,7 @@ pub fn run<B: AsRef<[u8]> + AsMut<[u8]>, T: Transport>(
                     .map(|c| c.values().collect())
                     .unwrap_or_default();
                 seen.counters.push(s.header.scan_counter);
+                seen.frequencies_1e2_hz.push(s.header.scan_frequency_1e2_hz);
                 seen.scans.push((d, r));
             }
             Event::Failed(e) => {
