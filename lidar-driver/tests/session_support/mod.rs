@@ -26,11 +26,12 @@ pub fn lms511_source() -> RecordingSource {
 /// Time-outs short enough for tests that last seconds.
 pub fn fast_timeouts() -> Timeouts {
     Timeouts {
-        probe_ms: 300,
-        answer_ms: 1000,
+        // Generous against CI load (2 cores shared), short enough for seconds-long tests.
+        probe_ms: 800,
+        answer_ms: 2000,
         ready_poll_ms: 100,
         ready_ms: 5000,
-        scan_ms: 500,
+        scan_ms: 1500,
         reconnect_delay_ms: 100,
     }
 }
