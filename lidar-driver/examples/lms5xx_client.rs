@@ -48,6 +48,7 @@ fn main() {
             other => eprintln!("{other}"),
         }
     }
+    session.stop(&mut link);
     let st = session.stats();
     let fs = session.framer_stats();
     println!(

@@ -84,6 +84,8 @@ pub enum Phase {
     Streaming,
     /// Gave up.
     Failed,
+    /// Stopped by [`Session::stop`].
+    Stopped,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,6 +112,7 @@ enum State {
         last_scan_ms: u64,
     },
     Failed(SessionError),
+    Stopped,
 }
 
 /// A session with one LMS5xx over a [`Transport`], its receive buffer `B`
@@ -191,6 +194,26 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
         }
     }
 
+    /// Ends the session politely: while scans stream, sends `sEN LMDscandata 0` (best effort,
+    /// the answer is not awaited), then closes the transport. Later polls return
+    /// [`Event::Idle`] until [`Session::restart`].
+    pub fn stop<T: Transport>(&mut self, io: &mut T) {
+        if matches!(self.core.state, State::Streaming { .. }) {
+            let unsubscribe = crate::request::Request::Subscribe {
+                event: names::SCAN_DATA,
+                enable: false,
+            };
+            if let Ok(n) = unsubscribe.emit(self.core.dialect, &mut self.core.tx) {
+                let bytes = self.core.tx.get(..n).unwrap_or(&[]);
+                let _ = io.write_all(bytes).and_then(|()| io.flush());
+            }
+        }
+        io.close();
+        self.core.state = State::Stopped;
+        self.core.pending = None;
+        self.framer.clear();
+    }
+
     /// Starts over after [`Event::Failed`] (or at any time): closes nothing itself; the next
     /// poll re-connects. Counters are kept.
     pub fn restart(&mut self) {
@@ -210,6 +233,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
             State::Step { step, .. } => Phase::StartingUp(step),
             State::Streaming { .. } => Phase::Streaming,
             State::Failed(_) => Phase::Failed,
+            State::Stopped => Phase::Stopped,
         }
     }
 
@@ -280,6 +304,7 @@ impl Core {
         let t = self.cfg.timeouts;
         match self.state {
             State::Failed(e) => Some(Event::Failed(e)),
+            State::Stopped => Some(Event::Idle),
             State::Disconnected { retry_at_ms } => {
                 if now < retry_at_ms {
                     return Some(Event::Idle);
@@ -508,7 +533,7 @@ impl Core {
             State::Streaming { .. } => self.on_stream_frame(&t, now),
             State::Probe { .. } | State::WaitReady { .. } => self.on_probe_frame(&t, io, now),
             State::Step { step, .. } => self.on_step_frame(&t, io, now, step),
-            State::Disconnected { .. } | State::Failed(_) => {
+            State::Disconnected { .. } | State::Failed(_) | State::Stopped => {
                 self.stats.ignored_frames += 1;
                 ignored(&t)
             }

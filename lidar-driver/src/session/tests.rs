@@ -580,3 +580,30 @@ fn events_read_as_log_lines() {
         .to_string()
         .starts_with("no scan for 1000 ms while streaming"));
 }
+
+#[test]
+fn stop_unsubscribes_closes_and_stays_quiet() {
+    let clock = Cell::new(0);
+    let mut io = Mock::default();
+    let mut s = Session::new(vec![0u8; 4096], cfg());
+    pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
+    assert_eq!(s.phase(), Phase::Streaming);
+    s.stop(&mut io);
+    let sent = io.take_requests();
+    assert_eq!(sent.len(), 1);
+    assert_eq!(
+        Request::from_frame(Frame::new_checked(&sent[0].1).unwrap()).unwrap(),
+        Request::Subscribe {
+            event: names::SCAN_DATA,
+            enable: false
+        }
+    );
+    assert!(!io.open);
+    clock.set(1_000_000);
+    let c = || clock.get();
+    assert_eq!(s.poll(&mut io, &c), Event::Idle);
+    assert_eq!(s.phase(), Phase::Stopped);
+    assert_eq!(io.opens, 1, "no re-connect after stop");
+    s.restart();
+    assert_eq!(s.poll(&mut io, &c), Event::Connected { attempt: 1 });
+}
