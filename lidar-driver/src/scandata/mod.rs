@@ -167,7 +167,7 @@ impl<'a> Encoders<'a> {
     }
 }
 
-/// Optional position block (6 × f32 + rotation type u8). **[doc]** only: no capture has one.
+/// Optional position block (6 × f32 + rotation type u8). Documented only (not seen on the wire): no capture has one.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PositionBlock {
     /// X position.
@@ -235,7 +235,7 @@ impl TimeBlock {
     }
 }
 
-/// Optional event block (`FDIN`, encoder position, time, angle). **[doc]** only.
+/// Optional event block (`FDIN`, encoder position, time, angle). Documented only (not seen on the wire).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct EventBlock {
     /// Event type, 4 ASCII characters (`FDIN`).
@@ -469,5 +469,64 @@ impl<'a> ScanData<'a> {
     /// Event block, if sent.
     pub fn event(&self) -> Option<EventBlock> {
         self.tail.event
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hand-written CoLa-A scan in the device's style: hex tokens, two's complement start
+    /// angle, a signed decimal token, a device name with a space, a comment, a time block.
+    #[test]
+    fn cola_a_scan_with_every_token_form() {
+        let t = b"\x02sSN LMDscandata 1 1 89A27F 0 0 343 347 27477BA9 2747813B 0 0 7 0 0 1388 168 1 3E8 -5 1 DIST1 40000000 00000000 FFF92230 1388 3 0 +100 FFFF 1 RSSI1 3F800000 00000000 FFF92230 1388 3 FE 0 1 0 1 9 LMS511 HD 1 2 ok 1 7E9 B 16 5 1F 3B F4240 0\x03";
+        let f = Frame::new_checked(t).unwrap();
+        let s = ScanData::new_checked(f).unwrap();
+        assert_eq!(s.header.version, 1);
+        assert_eq!(s.header.serial_number, 0x89A27F);
+        assert_eq!(s.header.output_status, [7, 0]);
+        assert_eq!(s.header.scan_frequency_1e2_hz, 5000);
+        let enc: Vec<Encoder> = s.encoders().iter().collect();
+        assert_eq!(
+            enc,
+            [Encoder {
+                position: 1000,
+                speed: -5
+            }]
+        );
+        let d = s.dist1().unwrap();
+        assert_eq!(d.header.start_angle_1e4_deg, -450_000);
+        assert!(d.values().eq([0u16, 100, 0xFFFF]));
+        let mm: Vec<Option<f32>> = d.distances_mm().collect();
+        assert_eq!(mm, [None, Some(200.0), Some(131_070.0)]);
+        let r = s.channel("RSSI1").unwrap();
+        assert_eq!(r.bits(), ChannelBits::U8);
+        assert!(r.values().eq([0xFEu16, 0, 1]));
+        assert_eq!(s.device_name(), Some(&b"LMS511 HD"[..]));
+        assert_eq!(s.comment(), Some(&b"ok"[..]));
+        let tb = s.time().unwrap();
+        assert_eq!(
+            (tb.year, tb.month, tb.day, tb.microsecond),
+            (2025, 11, 22, 1_000_000)
+        );
+    }
+
+    #[test]
+    fn cola_a_value_out_of_range_names_the_field() {
+        let t = b"\x02sSN LMDscandata 1 1 89A27F 0 0 343 347 27477BA9 2747813B 0 0 7 0 0 1388 168 0 0 1 RSSI1 3F800000 00000000 FFF92230 1388 2 FE 100 0 0 0 0 0\x03";
+        let e = ScanData::new_checked(Frame::new_checked(t).unwrap()).unwrap_err();
+        match e {
+            ScanError::Field {
+                field,
+                offset,
+                kind,
+            } => {
+                assert_eq!(field, ScanField::Values);
+                assert_eq!(kind, crate::args::ArgErrorKind::OutOfRange);
+                assert_eq!(&t[offset..offset + 3], b"100");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }
