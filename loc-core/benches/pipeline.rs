@@ -57,6 +57,9 @@ fn fixture() -> Fixture {
     }
 }
 
+/// Position standard deviation of the prediction, metres (as in [`prior`]).
+const PRIOR_SD_M: f32 = 0.036;
+
 fn prior() -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(
         0.03f32.powi(2),
@@ -96,6 +99,7 @@ fn stages(c: &mut Criterion) {
             &strip,
             &selected,
             f.predicted,
+            PRIOR_SD_M,
             &PrealignConfig::default(),
             &cfg,
             &mut ws,
@@ -115,6 +119,7 @@ fn stages(c: &mut Criterion) {
                     &strip,
                     black_box(&selected),
                     f.predicted,
+                    PRIOR_SD_M,
                     &PrealignConfig::default(),
                     &cfg,
                     &mut ws,
@@ -131,6 +136,7 @@ fn stages(c: &mut Criterion) {
         &strip,
         &selected,
         f.predicted,
+        PRIOR_SD_M,
         &PrealignConfig::default(),
         &cfg,
         &mut ws,

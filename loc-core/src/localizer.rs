@@ -291,6 +291,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             &strip,
             &self.match_points,
             ekf.pose(),
+            position_sd_m(&ekf.covariance()),
             &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
@@ -377,4 +378,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn config(&self) -> &LocalizerConfig {
         &self.config
     }
+}
+
+/// A bound on the position's standard deviation, metres: `√(σx² + σy²)`.
+fn position_sd_m(p: &Matrix3<f32>) -> f32 {
+    crate::math::sqrt((p.m11 + p.m22).max(0.0))
 }

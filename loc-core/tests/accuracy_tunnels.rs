@@ -103,6 +103,7 @@ fn stages(t: &Tunnel, scan: &Scan, guess: Pose2, matcher: MatcherKind) -> MatchR
         &strip,
         &selected,
         guess,
+        f32::INFINITY,
         &PrealignConfig::default(),
         &config,
         &mut ws,

@@ -8,8 +8,8 @@
 //!    give up). If this asks for a shift above `min_shift_m`, match again from the
 //!    shifted pose and keep that result.
 //!
-//! In steady tracking the second pre-alignment finds nothing to shift and costs only the
-//! clustering pass; the second match runs only after a large along-tunnel error.
+//! In steady tracking (a prediction good to a few centimetres) both pre-alignments are
+//! skipped; the second match runs only after a large along-tunnel error.
 
 use super::{match_scan, prealign_along_tunnel, MatchConfig, MatchError, MatchResult};
 use super::{MatchWorkspace, PrealignConfig, PrealignShift};
@@ -30,7 +30,9 @@ pub struct GuidedMatch {
 
 /// Matches `selected` (vehicle frame, from [`super::select_match_points`]) against `map`,
 /// pre-aligning on the landmark clusters of `points`/`labels` (the whole scan in beam order
-/// and its stripping labels) as described in the module docs.
+/// and its stripping labels) as described in the module docs. `prior_position_sd_m` is the
+/// predicted position's standard deviation, metres (`f32::INFINITY` if unknown): when it is
+/// below a third of `prealign.min_shift_m` the pre-alignment is skipped.
 #[allow(clippy::too_many_arguments)]
 pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     map: &M,
@@ -39,10 +41,20 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     strip: &StripSummary,
     selected: &[Point2],
     predicted: Pose2,
+    prior_position_sd_m: f32,
     prealign: &PrealignConfig,
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
+    // A prediction known to within a third of `min_shift_m` cannot profit from a
+    // pre-alignment (it would be ignored anyway): skip its cost.
+    if prior_position_sd_m.is_finite() && 3.0 * prior_position_sd_m < prealign.min_shift_m {
+        return Ok(GuidedMatch {
+            result: match_scan(map, selected, predicted, config, workspace)?,
+            prealign: None,
+            rematched: false,
+        });
+    }
     let first_shift = prealign_along_tunnel(map, points, labels, strip, predicted, prealign)
         .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
     let start = first_shift.map_or(predicted, |s| s.pose);

@@ -140,6 +140,7 @@ fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) ->
         &strip,
         &sel,
         guess,
+        f32::INFINITY,
         &PrealignConfig::default(),
         config,
         &mut ws,

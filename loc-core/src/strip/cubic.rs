@@ -172,6 +172,7 @@ impl LeastSquares {
 
     /// Adds one point (vehicle frame) with weight `w > 0`. Non-finite points or weights
     /// are ignored.
+    #[inline]
     pub fn add_weighted(&mut self, p: Point2, w: f32) {
         if !p.is_finite() || !w.is_finite() || w <= 0.0 {
             return;

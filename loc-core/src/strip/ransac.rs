@@ -21,7 +21,8 @@ use crate::rng::Pcg32;
 pub struct WallFit {
     /// The wall `y = f(x)`, vehicle frame, metres.
     pub cubic: Cubic,
-    /// Points within the fit tolerance of the wall (on this wall's side of the scan).
+    /// Points within the fit tolerance of the wall used by the final refit (on this wall's
+    /// side of the scan; a strided subsample of at most about 256).
     pub inliers: u16,
     /// RMS normal distance of those inliers to the wall, metres.
     pub rms_m: f32,
@@ -29,6 +30,9 @@ pub struct WallFit {
 
 /// Capacity of the scoring subsample.
 const MAX_SAMPLE: usize = 128;
+
+/// Points per wall used by each least-squares refit (at most about this many).
+const MAX_REFIT: usize = 256;
 
 /// Whether a point takes part in fitting: finite and within the fit range of the vehicle.
 #[inline]
@@ -94,13 +98,20 @@ pub(super) fn fit_wall<P: VehiclePoint>(
 
     // Two refits: the first on the hypothesis' inliers, the second on the refined wall's.
     let mut result = None;
+    // Refits use at most ~MAX_REFIT points (a strided subsample): a few hundred points pin
+    // a cubic far below the tolerances, and this pass dominates the stripper's cost.
+    let stride = usable_count.div_ceil(MAX_REFIT).max(1);
     for _ in 0..2 {
         let mut ls = LeastSquares::new(scaling);
         let mut sum_sq = 0.0f32;
         let mut prev = points
             .first()
             .map_or(Point2::ORIGIN, VehiclePoint::vehicle_point);
-        for p in points.iter().map(VehiclePoint::vehicle_point) {
+        for p in points
+            .iter()
+            .step_by(stride)
+            .map(VehiclePoint::vehicle_point)
+        {
             if usable(p, max_r) {
                 let (r, slope) = cubic.residual_and_slope(p);
                 // |normal distance| ≤ tol  ⇔  r² ≤ tol²·(1 + f′²), no square root.
@@ -126,13 +137,13 @@ pub(super) fn fit_wall<P: VehiclePoint>(
     result
 }
 
-/// The weight of a point: its x distance to the previous beam's point, clamped to
-/// 5 mm … 1 m (the clamp keeps a repeated point and a gap across a landmark in bounds).
+/// The weight of a point: its x distance to the previous (sub)sampled point, clamped to
+/// 5 mm … 2 m (the clamp keeps a repeated point and a gap across a landmark in bounds).
 #[inline]
 fn spacing_weight(prev: Point2, p: Point2) -> f32 {
     let gap = math::abs(p.x_m - prev.x_m);
     if gap.is_finite() {
-        gap.clamp(0.005, 1.0)
+        gap.clamp(0.005, 2.0)
     } else {
         1.0
     }
