@@ -286,9 +286,9 @@ impl<'a> Answer<'a> {
     }
 
     /// Writes this answer as a complete frame into `buf` (the emulator's side) and returns its
-    /// length. Scans are written with `ScanRepr` (this returns [`EmitError::InvalidText`] for
+    /// length. Scans are written with `ScanRepr` (this returns [`EmitError::NotEncodable`] for
     /// them); an untyped [`Answer::Other`] can only be re-emitted in its own dialect (its
-    /// argument bytes are copied), else [`EmitError::InvalidText`].
+    /// argument bytes are copied), else [`EmitError::NotEncodable`].
     pub fn emit(&self, dialect: Dialect, buf: &mut [u8]) -> Result<usize, EmitError> {
         let (kind, name) = self.header();
         let mut w = TelegramWriter::begin(dialect, buf, kind, name)?;
@@ -324,10 +324,10 @@ impl<'a> Answer<'a> {
             Answer::Error(e) => {
                 w.u16(e.code())?;
             }
-            Answer::Scan(_) => return Err(EmitError::InvalidText),
+            Answer::Scan(_) => return Err(EmitError::NotEncodable),
             Answer::Other(t) => {
                 if t.dialect() != dialect {
-                    return Err(EmitError::InvalidText);
+                    return Err(EmitError::NotEncodable);
                 }
                 return w.finish_raw_args(t.args());
             }

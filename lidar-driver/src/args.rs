@@ -462,6 +462,9 @@ pub enum EmitError {
     TooLong,
     /// A CoLa-A string contains bytes that may not appear in CoLa-A (control bytes).
     InvalidText,
+    /// This value has no encoding in the requested form (a scan is written with `ScanRepr`;
+    /// an untyped answer only in the dialect it was received in).
+    NotEncodable,
 }
 
 impl fmt::Display for EmitError {
@@ -474,6 +477,9 @@ impl fmt::Display for EmitError {
             EmitError::InvalidText => {
                 f.write_str("text contains bytes not allowed in CoLa-A (only printable ASCII)")
             }
+            EmitError::NotEncodable => f.write_str(
+                "cannot encode this value here: write scans with ScanRepr, and untyped answers only in their own dialect",
+            ),
         }
     }
 }

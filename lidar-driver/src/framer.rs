@@ -383,6 +383,40 @@ mod tests {
     }
 
     #[test]
+    fn start_marker_split_across_pushes_is_kept() {
+        let good = colab(b"sRN ODoprh");
+        let mut f = Framer::new([0u8; 64]);
+        let mut out = Vec::new();
+        for piece in [&good[..2], &good[2..5], &good[5..]] {
+            f.feed(piece, |r| out.push(r.map(|fr| fr.as_bytes().to_vec())));
+        }
+        assert_eq!(out, vec![Ok(good.clone())]);
+        let mut f = Framer::new([0u8; 64]);
+        f.feed(b"\x02", |_| panic!("incomplete"));
+        f.feed(b"sRN x\x03", |r| {
+            out.push(r.map(|fr| fr.as_bytes().to_vec()))
+        });
+        assert_eq!(out[1], Ok(b"\x02sRN x\x03".to_vec()));
+    }
+
+    #[test]
+    fn configured_max_payload_rejects_long_frames() {
+        let long = colab(&[b's'; 40]);
+        let mut f = Framer::with_max_payload([0u8; 256], 32);
+        let mut out = Vec::new();
+        f.feed(&long, |r| out.push(r.map(|fr| fr.as_bytes().len())));
+        assert_eq!(
+            out[0],
+            Err(FrameError::BadLength {
+                claimed: 40,
+                max: 32
+            })
+        );
+        assert_eq!(f.stats().bad_length, 1);
+        assert_eq!(f.stats().frames_good(), 0);
+    }
+
+    #[test]
     fn cola_a_without_end_never_stalls() {
         let mut f = Framer::new([0u8; 32]);
         let mut stream = vec![2u8];
