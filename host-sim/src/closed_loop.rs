@@ -10,6 +10,8 @@
 
 use std::time::Instant;
 
+use cpu_time::ThreadTime;
+
 use loc_core::rng::Pcg32;
 
 use crate::lidar::{LidarScan, Lms511};
@@ -150,7 +152,7 @@ pub struct RunLog {
     pub initial_estimate: (SimPose, f64, f64),
     /// Wall-clock time of the whole run (simulation + estimator), seconds.
     pub wall_time_s: f64,
-    /// Wall-clock time spent ray casting, seconds.
+    /// CPU time spent ray casting, seconds.
     pub raycast_time_s: f64,
 }
 
@@ -165,6 +167,21 @@ impl RunLog {
         let sim = self.samples.last().map_or(0.0, |s| s.t_s);
         if self.wall_time_s > 0.0 {
             sim / self.wall_time_s
+        } else {
+            0.0
+        }
+    }
+
+    /// Simulated time over the CPU time of the lidar simulation and the estimator (the
+    /// scan-rate work; the 1 kHz vehicle integration is not counted): how much faster than
+    /// real time the sensor and localiser run on one core, whatever else loads the machine.
+    /// [`crate::session::run_scenario_timed`] measures the whole run.
+    pub fn scan_cpu_real_time_factor(&self) -> f64 {
+        let sim = self.samples.last().map_or(0.0, |s| s.t_s);
+        let cpu =
+            self.raycast_time_s + self.samples.iter().map(|s| s.update_us).sum::<f64>() * 1e-6;
+        if cpu > 0.0 {
+            sim / cpu
         } else {
             0.0
         }
@@ -282,10 +299,11 @@ pub fn run(
 
         if t + 1e-9 >= next_scan_index as f64 * scan_period_s {
             next_scan_index += 1;
-            let r0 = Instant::now();
+            // CPU time of this thread: other processes on the machine do not count.
+            let r0 = ThreadTime::now();
             let scan = lidar.scan(world.grid(), (after.x_m, after.y_m, after.theta_rad), t);
             raycast_time += r0.elapsed().as_secs_f64();
-            let e0 = Instant::now();
+            let e0 = ThreadTime::now();
             let out = estimator.scan(&scan);
             let update_us = e0.elapsed().as_secs_f64() * 1e6;
             let proj = line.project(after.x_m, after.y_m, chainage_hint, 5.0);

@@ -3,9 +3,9 @@
 //! - the paper's eq. 2: `E = 1/N Σ (x_g − x̂)² + (y_g − ŷ)² + (θ_g − θ̂)²` (m² and rad²
 //!   summed as the paper does), and its root;
 //! - position and heading RMS, maximum position error;
-//! - the error split along and across the tunnel (along the centre-line tangent at the
-//!   true position, and its normal), since a smooth tunnel leaves only the along-tunnel
-//!   direction unobservable;
+//! - the error split along and across the tunnel in tunnel coordinates (chainage and
+//!   lateral offset from the centre line), since a smooth tunnel leaves only the
+//!   along-tunnel direction unobservable;
 //! - position RMS over the first and the last 100 m driven, and binned against distance;
 //! - time per scan update (the localiser's, measured around its call);
 //! - the same accuracy figures for odometry alone.
@@ -38,7 +38,7 @@ pub struct Sample {
     /// The estimate's position standard deviations (square roots of the covariance's
     /// diagonal), metres: `(σx, σy)`; heading σ in radians.
     pub sigma: (f64, f64, f64),
-    /// Time the localiser took for this scan, microseconds.
+    /// CPU time the estimator took for this scan, microseconds.
     pub update_us: f64,
 }
 
@@ -99,16 +99,30 @@ pub struct Metrics {
     pub mean_us_per_scan: f64,
     /// Largest localiser time for one scan, microseconds.
     pub max_us_per_scan: f64,
+    /// RMS of odometry's distance error: the length of the dead-reckoned path minus the
+    /// true distance driven, over the samples, metres. The along-tunnel error a localiser
+    /// without landmarks inherits (odometry alone's own along-tunnel figure is lower on
+    /// curves, where its heading drift bends the path off the tunnel).
+    pub odometry_distance_error_rms_m: f64,
+    /// Odometry's distance error at the last sample, metres.
+    pub odometry_distance_error_final_m: f64,
     /// Error against distance driven.
     pub by_distance: Vec<DistanceBin>,
 }
 
-/// Position error split `(along, across)` the tunnel at the truth's chainage.
+/// Half-width of the chainage window searched when projecting an estimate onto the centre
+/// line, metres (odometry alone can be tens of metres off).
+const PROJECTION_WINDOW_M: f64 = 80.0;
+
+/// Position error in tunnel coordinates `(along, across)`: the estimate's chainage minus the
+/// truth's, and the estimate's lateral offset from the centre line minus the truth's. On a
+/// curve this keeps an along-tunnel error from showing up as a lateral one (a pose 10 m
+/// too far along a 250 m radius is 0.2 m off the truth's tangent line, yet exactly where
+/// it should be across the tunnel).
 fn split_error(line: &CenterLine, s: &Sample, est: SimPose) -> (f64, f64) {
-    let (_, _, h) = line.pose_at(s.chainage_m);
-    let (ex, ey) = (est.x_m - s.truth.x_m, est.y_m - s.truth.y_m);
-    let (sn, cs) = h.sin_cos();
-    (ex * cs + ey * sn, -ex * sn + ey * cs)
+    let t = line.project(s.truth.x_m, s.truth.y_m, s.chainage_m, 1.0);
+    let e = line.project(est.x_m, est.y_m, s.chainage_m, PROJECTION_WINDOW_M);
+    (e.s_m - t.s_m, e.lateral_m - t.lateral_m)
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> f64 {
@@ -186,7 +200,27 @@ pub fn compute(line: &CenterLine, samples: &[Sample], bin_m: f64) -> Metrics {
         });
         start = end.max(start + 1);
     }
+    // Odometry path length from consecutive samples (chords at the scan rate).
+    let mut odo_len = 0.0;
+    let mut dist_err_sq = 0.0;
+    let mut dist_err_final = 0.0;
+    for (i, s) in samples.iter().enumerate() {
+        if i > 0 {
+            let p = samples[i - 1].odometry;
+            odo_len += (s.odometry.x_m - p.x_m).hypot(s.odometry.y_m - p.y_m);
+        }
+        let first = samples[0].distance_m;
+        dist_err_final = odo_len - (s.distance_m - first);
+        dist_err_sq += dist_err_final * dist_err_final;
+    }
+    let odometry_distance_error_rms_m = if scans > 0 {
+        (dist_err_sq / scans as f64).sqrt()
+    } else {
+        0.0
+    };
     Metrics {
+        odometry_distance_error_rms_m,
+        odometry_distance_error_final_m: dist_err_final,
         localizer: accuracy(line, samples, |s| s.estimate),
         odometry: accuracy(line, samples, |s| s.odometry),
         scans,
@@ -256,6 +290,8 @@ mod tests {
         assert!((a.across_rms_m - (0.0016 * frac).sqrt()).abs() < 1e-12);
         assert!((m.odometry.along_rms_m - 1.0).abs() < 1e-12);
         assert_eq!(m.scans, 250);
+        // Odometry 1 m behind all along: same path length, no distance error.
+        assert!(m.odometry_distance_error_rms_m < 1e-9);
         assert!((m.mean_us_per_scan - 224.5).abs() < 1e-9);
         assert_eq!(m.by_distance.len(), 5);
         assert!((m.by_distance[0].odometry_position_rms_m - 1.0).abs() < 1e-12);

@@ -85,6 +85,10 @@ pub struct MetricsJson {
     pub odometry_max_position_error_m: f64,
     /// Odometry-alone position error at the end, metres.
     pub odometry_final_position_error_m: f64,
+    /// Odometry's distance error RMS (dead-reckoned path length minus true), metres.
+    pub odometry_distance_error_rms_m: f64,
+    /// Odometry's distance error at the end, metres.
+    pub odometry_distance_error_final_m: f64,
     /// Scans processed.
     pub scans: usize,
     /// Distance driven, metres.
@@ -101,6 +105,13 @@ pub struct MetricsJson {
     pub raycast_time_s: f64,
     /// Simulated over wall-clock time.
     pub real_time_factor: f64,
+    /// Simulated time over the CPU time of lidar simulation + localiser.
+    pub scan_cpu_real_time_factor: f64,
+    /// CPU time of the whole run on its one thread, seconds (when measured).
+    pub cpu_time_s: Option<f64>,
+    /// Simulated time over that CPU time: how much faster than real time the simulation
+    /// with localisation runs on one core.
+    pub cpu_real_time_factor: Option<f64>,
     /// World summary.
     pub world: WorldSummary,
     /// Count of scans per estimator status.
@@ -143,6 +154,8 @@ impl MetricsJson {
             odometry_across_rms_m: o.across_rms_m,
             odometry_max_position_error_m: o.max_position_error_m,
             odometry_final_position_error_m: o.final_position_error_m,
+            odometry_distance_error_rms_m: m.odometry_distance_error_rms_m,
+            odometry_distance_error_final_m: m.odometry_distance_error_final_m,
             scans: m.scans,
             distance_m: m.distance_m,
             sim_time_s: m.sim_time_s,
@@ -151,10 +164,20 @@ impl MetricsJson {
             wall_time_s: log.wall_time_s,
             raycast_time_s: log.raycast_time_s,
             real_time_factor: log.real_time_factor(),
+            cpu_time_s: None,
+            cpu_real_time_factor: None,
+            scan_cpu_real_time_factor: log.scan_cpu_real_time_factor(),
             world: log.world,
             status_counts,
             by_distance: m.by_distance.clone(),
         }
+    }
+
+    /// Adds the run's CPU time (from [`crate::session::run_scenario_timed`]).
+    pub fn with_cpu_time(mut self, cpu_time_s: f64) -> Self {
+        self.cpu_time_s = Some(cpu_time_s);
+        self.cpu_real_time_factor = (cpu_time_s > 0.0).then(|| self.sim_time_s / cpu_time_s);
+        self
     }
 
     /// As one line of JSON.

@@ -72,3 +72,16 @@ pub fn run_scenario(
         }
     }
 }
+
+/// Runs `scenario` like [`run_scenario`] and also returns the CPU time of the whole run
+/// (world, map, vehicle, lidar and estimator on this thread), seconds: the figure for
+/// "faster than real time on one core", unaffected by other load on the machine.
+pub fn run_scenario_timed(
+    scenario: &Scenario,
+    estimator: EstimatorChoice,
+    options: &RunOptions<'_>,
+) -> Result<(RunLog, f64), SimError> {
+    let t0 = cpu_time::ThreadTime::now();
+    let log = run_scenario(scenario, estimator, options)?;
+    Ok((log, t0.elapsed().as_secs_f64()))
+}
