@@ -119,7 +119,7 @@ impl Default for StripConfig {
             landmark_band_inward_m: 0.6,
             landmark_band_outward_m: 0.3,
             max_fit_range_m: 30.0,
-            ransac_iterations: 24,
+            ransac_iterations: 16,
             score_sample_points: 64,
             min_wall_points: 12,
             seed: 0x005e_ed0f_ca11,
