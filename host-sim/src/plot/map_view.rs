@@ -9,6 +9,18 @@ use super::map_lines::MapLines;
 use super::style::{self, msg, FONT};
 use crate::metrics::Sample;
 
+/// How far beyond the driven paths the map is shown, metres (a tunnel's half width and more).
+pub const TUNNEL_MARGIN_M: f64 = 8.0;
+
+/// Bounding box `(x0, x1, y0, y1)` of the finite points, if any.
+fn bbox(pts: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64, f64, f64)> {
+    let mut b = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for (x, y) in pts.filter(|p| p.0.is_finite() && p.1.is_finite()) {
+        b = (b.0.min(x), b.1.max(x), b.2.min(y), b.3.max(y));
+    }
+    (b.0 <= b.1).then_some(b)
+}
+
 /// A path: label, colour, and which pose of a sample it follows.
 type PathSeries = (&'static str, RGBColor, fn(&Sample) -> (f64, f64));
 
@@ -20,26 +32,29 @@ pub fn draw<DB: DrawingBackend>(
     samples: &[Sample],
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(msg)?;
-    let paths = samples
+    // The view spans the drive (plus the tunnel around it), not the whole map: a 200 m
+    // drive in a 1 km tunnel would be a speck. Lines leaving the view are clipped.
+    let paths: Vec<(f64, f64)> = samples
         .iter()
         .flat_map(|s| [s.truth, s.estimate, s.odometry])
-        .map(|p| (p.x_m, p.y_m));
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (x, y) in lines
-        .points()
-        .chain(paths)
-        .filter(|p| p.0.is_finite() && p.1.is_finite())
-    {
-        x0 = x0.min(x);
-        x1 = x1.max(x);
-        y0 = y0.min(y);
-        y1 = y1.max(y);
+        .map(|p| (p.x_m, p.y_m))
+        .collect();
+    let (mut x0, mut x1, mut y0, mut y1) = match bbox(paths.iter().copied()) {
+        Some((a, b, c, d)) => {
+            let m = TUNNEL_MARGIN_M;
+            let near = |p: &(f64, f64)| p.0 > a - m && p.0 < b + m && p.1 > c - m && p.1 < d + m;
+            bbox(lines.points().filter(near).chain(paths.iter().copied())).unwrap_or((a, b, c, d))
+        }
+        None => bbox(lines.points()).unwrap_or((0.0, 1.0, 0.0, 1.0)),
+    };
+    if x1 - x0 < 1.0 {
+        (x0, x1) = (x0 - 0.5, x1 + 0.5);
     }
-    if x0 > x1 {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+    if y1 - y0 < 1.0 {
+        (y0, y1) = (y0 - 0.5, y1 + 0.5);
     }
-    let pad = 0.03 * (x1 - x0).max(y1 - y0).max(1.0);
-    let (x0, x1, y0, y1) = (x0 - pad, x1 + pad, y0 - pad, y1 + pad);
+    let (px, py) = (0.03 * (x1 - x0), 0.06 * (y1 - y0));
+    let (x0, x1, y0, y1) = (x0 - px, x1 + px, y0 - py, y1 + py);
     let (w, h) = root.dim_in_pixel();
     // Metres per pixel along each axis (plot area about 85 % of the image).
     let sx = (x1 - x0) / (0.85 * f64::from(w));
