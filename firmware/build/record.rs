@@ -5,12 +5,14 @@
 //! and a 2 %-scale-error odometry between scans.
 //!
 //! Written into OUT_DIR (`map.bin`, `scans_mm.bin`, `recording.rs`) and embedded by
-//! `src/recorded.rs`.
+//! `src/recorded.rs`; plus `scans_colab.bin`, the same scans as a raw CoLa-B `LMDscandata`
+//! stream (what an LMS511 sends) for the LMS5xx emulator in the controller's QEMU test.
 
 use std::fmt::Write as _;
 use std::fs;
 use std::path::Path;
 
+use lidar_driver::{ChannelRepr, CommandType, Dialect, ScanHeader, ScanRepr};
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
@@ -46,6 +48,47 @@ fn true_pose(spec: &TunnelSpec, k: usize) -> Pose2 {
     )
 }
 
+/// Scan `k` as a CoLa-B `sSN LMDscandata` telegram of an LMS511 at 25 Hz, 0.1667°, DIST1
+/// only, −5° … +185°.
+fn scan_telegram(k: usize, values: Vec<u16>) -> Vec<u8> {
+    let counter = k as u16;
+    let repr = ScanRepr {
+        command_type: CommandType::Event,
+        header: ScanHeader {
+            version: 0,
+            device_number: 1,
+            serial_number: 0x0123_4567,
+            device_status: [0, 0],
+            telegram_counter: counter,
+            scan_counter: counter,
+            time_since_startup_us: 40_000 * k as u32,
+            time_of_transmission_us: 40_000 * k as u32 + 30_000,
+            input_status: [0, 0],
+            output_status: [0, 0],
+            reserved_layer_angle: 0,
+            scan_frequency_1e2_hz: 2500,
+            measurement_frequency_100hz: 540,
+        },
+        encoders: Vec::new(),
+        channels16: vec![ChannelRepr {
+            name: *b"DIST1",
+            scale_factor: 1.0,
+            scale_offset: 0.0,
+            start_angle_1e4_deg: -50_000,
+            step_1e4_deg: 1_667,
+            values,
+        }],
+        channels8: Vec::new(),
+        position: None,
+        device_name: None,
+        comment: None,
+        time: None,
+        event: None,
+    };
+    repr.to_vec(Dialect::ColaB)
+        .expect("an LMS511 scan emits as CoLa-B")
+}
+
 /// Writes the recording into `out`.
 pub fn write_recordings(out: &Path) {
     let spec = TunnelSpec::straight(TUNNEL_LENGTH_M).with_landmarks(LandmarkLayout::paper(
@@ -67,14 +110,18 @@ pub fn write_recordings(out: &Path) {
     let mut truth = String::new();
     let mut odometry = String::new();
     let mut previous: Option<Pose2> = None;
+    let mut colab = Vec::new();
     for k in 0..SCANS {
         let pose = true_pose(&spec, k);
         sim.simulate(&*map, &pose, &setup, &mut ranges_m);
+        let mut values = Vec::with_capacity(LMS511_MAX_BEAMS);
         for r_m in ranges_m {
             // What the LMS511 reports: whole millimetres, 0 = no echo.
             let mm = (r_m * 1000.0).round().clamp(0.0, 65535.0) as u16;
             raw.extend_from_slice(&mm.to_le_bytes());
+            values.push(mm);
         }
+        colab.extend(scan_telegram(k, values));
         writeln!(
             truth,
             "    [{:?}, {:?}, {:?}],",
@@ -100,6 +147,7 @@ pub fn write_recordings(out: &Path) {
         previous = Some(pose);
     }
     fs::write(out.join("scans_mm.bin"), raw).expect("write scans_mm.bin");
+    fs::write(out.join("scans_colab.bin"), colab).expect("write scans_colab.bin");
     let landmarks = map.landmarks().len();
     let src = format!(
         "/// Scans in the recording.\npub const SCAN_COUNT: usize = {SCANS};\n\

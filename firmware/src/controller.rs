@@ -6,8 +6,9 @@
 //! A damaged map (checksum, version) stops the controller: it never localises on a wrong map.
 //!
 //! Motion prediction: this board has no odometry input yet, so each scan is predicted with
-//! the motion between the two previous estimates (constant velocity); wire the wheel
-//! odometry into [`Controller::on_scan`]'s prediction when the vehicle interface exists.
+//! the motion between the two previous estimates (constant velocity) and the uncertainty of
+//! an unmeasured motion ([`UNMEASURED_MOTION_SIGMA`] per scan); wire the wheel odometry into
+//! [`Controller::on_scan`]'s prediction when the vehicle interface exists.
 
 use lidar_driver::session::{Event, Session, SessionConfig};
 use lidar_driver::ScanData;
@@ -27,6 +28,10 @@ use crate::scan_input::{load_scan, ScanInputError};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
+
+/// 1σ of the motion between two scans when no odometry is wired: forward and left metres,
+/// heading radians (a loader at up to 10 m/s moves 0.4 m per 25 Hz scan).
+pub const UNMEASURED_MOTION_SIGMA: [f32; 3] = [0.3, 0.1, 0.03];
 
 /// Which map the controller runs on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
@@ -103,10 +108,19 @@ impl<'m> Controller<'m> {
         })
     }
 
+    /// The localizer's status after the last scan.
+    pub fn status(&self) -> Status {
+        self.localizer.status()
+    }
+
     /// Localises on one scan telegram and returns the pose frame to send.
     pub fn on_scan(&mut self, telegram: &ScanData<'_>) -> Result<PoseFrame, ScanInputError> {
         // A rejected (implausible) increment leaves the state unchanged.
-        let _ = self.localizer.predict_odometry(&self.motion);
+        let [sx, sy, sth] = UNMEASURED_MOTION_SIGMA;
+        let motion_cov = Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, sth * sth));
+        let _ = self
+            .localizer
+            .predict_odometry_with_covariance(&self.motion, &motion_cov);
         let sensor = self.localizer.config().sensor;
         load_scan(telegram, &sensor, &mut self.raw, &mut self.scan)?;
         let status = self.localizer.update_scan(&self.scan);
@@ -164,6 +178,12 @@ pub fn run<B: Board>(
                             cost,
                             B::COUNTER_UNIT
                         );
+                        if frame.status == PoseStatus::OdometryOnly {
+                            defmt::info!(
+                                "  scan not used: {}",
+                                defmt::Debug2Format(&controller.status())
+                            );
+                        }
                         Some(frame)
                     }
                     Err(e) => {

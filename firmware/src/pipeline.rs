@@ -145,6 +145,7 @@ impl StagedPipeline {
             &strip,
             &self.match_points,
             self.ekf.pose(),
+            position_sd_m(&self.ekf.covariance()),
             &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
@@ -177,4 +178,10 @@ impl StagedPipeline {
             odometry,
         }
     }
+}
+
+/// A bound on the position's standard deviation, metres: `√(σx² + σy²)` (as the Localizer
+/// computes it for the pre-alignment decision; private there).
+fn position_sd_m(p: &Matrix3<f32>) -> f32 {
+    loc_core::math::sqrt((p.m11 + p.m22).max(0.0))
 }

@@ -117,6 +117,10 @@ fn main() -> ! {
     }
     print_stats("sum-of-stages", &report.staged_end_to_end);
     print_stats("end-to-end (Localizer)", &report.localizer_end_to_end);
+    print_stats(
+        "end-to-end (Localizer) without the first, acquisition scan",
+        &report.localizer_tracking,
+    );
     defmt::println!(
         "localizer: {=u32} tracking, {=u32} degenerate, {=u32} rejected; final error {=f32} m, {=f32} rad; max error over the second half {=f32} m",
         report.statuses[0],

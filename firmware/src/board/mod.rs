@@ -74,20 +74,14 @@ pub trait Board {
     /// where SysTick ticks at 25 MHz against a 1 GHz virtual instruction clock).
     const COUNTER_RESOLUTION: u64;
 
-    /// Counter units per millisecond (the session's time-outs run on this clock): 1 000 000
-    /// instructions under QEMU `-icount shift=0` (one instruction per virtual ns), the core
-    /// clock in kHz on hardware.
-    const COUNTER_PER_MS: u64;
-
     /// The flash region a stored map is written to (by the flasher, or QEMU's
     /// `-device loader,file=MAP,addr=…`), whole; erased flash or zeros when nothing was
     /// written.
     fn map_region(&self) -> &'static [u8];
 
-    /// Milliseconds since start-up on the board counter.
-    fn now_ms(&self) -> u64 {
-        self.counter_now() / Self::COUNTER_PER_MS
-    }
+    /// Milliseconds since start-up (the LMS session's time-outs run on this clock). Under
+    /// QEMU it is virtual time: with `-icount shift=0` one instruction is one nanosecond.
+    fn now_ms(&self) -> u64;
 
     /// Ends the program with `status` (QEMU: semihosting exit; hardware: breakpoint so the
     /// attached probe-rs session stops, then a loop).

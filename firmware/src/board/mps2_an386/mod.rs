@@ -54,7 +54,11 @@ impl Board for Mps2An386 {
         Some(Self { uart0, counter })
     }
 
-    const COUNTER_PER_MS: u64 = 1_000_000;
+    fn now_ms(&self) -> u64 {
+        // SysTick runs on the 25 MHz processor clock in QEMU's virtual time, with or without
+        // -icount.
+        self.counter.ticks() / (u64::from(PCLK_HZ) / 1000)
+    }
 
     fn map_region(&self) -> &'static [u8] {
         // SAFETY: the region lies in the board's code memory, outside every linker section

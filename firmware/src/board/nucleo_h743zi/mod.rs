@@ -83,7 +83,9 @@ impl Board for NucleoH743zi {
         })
     }
 
-    const COUNTER_PER_MS: u64 = SYS_CLK_HZ as u64 / 1000;
+    fn now_ms(&self) -> u64 {
+        self.counter.cycles() / (SYS_CLK_HZ as u64 / 1000)
+    }
 
     fn map_region(&self) -> &'static [u8] {
         // SAFETY: the region lies in flash outside every linker section (memory.x ends FLASH
