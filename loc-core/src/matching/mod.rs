@@ -236,7 +236,7 @@ impl fmt::Display for MatchError {
     }
 }
 
-/// Scratch memory of one match (about 20 KiB): keep one, in the [`crate::localizer`] or a
+/// Scratch memory of one match (24 KiB: 512 associations of 48 bytes): keep one, in the [`crate::localizer`] or a
 /// static, rather than on a small stack.
 #[derive(Debug, Clone)]
 pub struct MatchWorkspace {
