@@ -62,7 +62,7 @@ pub fn draw<DB: DrawingBackend>(
         .draw()
         .map_err(msg)?;
     for (label, colour, pts) in series {
-        let st = ShapeStyle::from(&colour).stroke_width(2);
+        let st = ShapeStyle::from(&colour).stroke_width(style::DATA_LINE_PX);
         chart
             .draw_series(LineSeries::new(
                 pts.into_iter().map(|(d, e)| (d, e.max(y0))),

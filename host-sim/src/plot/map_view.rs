@@ -89,7 +89,7 @@ pub fn draw<DB: DrawingBackend>(
     chart
         .draw_series(LineSeries::new(lines.right_wall.iter().copied(), wall))
         .map_err(msg)?;
-    let lm = ShapeStyle::from(&style::LANDMARK).stroke_width(3);
+    let lm = ShapeStyle::from(&style::LANDMARK).stroke_width(2);
     for (i, l) in lines.landmarks.iter().enumerate() {
         let s = chart
             .draw_series(LineSeries::new(l.iter().copied(), lm))
@@ -109,7 +109,7 @@ pub fn draw<DB: DrawingBackend>(
         }),
     ];
     for (label, colour, pick) in series {
-        let st = ShapeStyle::from(&colour).stroke_width(2);
+        let st = ShapeStyle::from(&colour).stroke_width(style::DATA_LINE_PX);
         chart
             .draw_series(LineSeries::new(samples.iter().map(pick), st))
             .map_err(msg)?

@@ -23,6 +23,10 @@ pub const LANDMARK: RGBColor = RGBColor(44, 160, 44);
 /// A second quantity of the same source (e.g. σy beside σx).
 pub const SECOND: RGBColor = RGBColor(255, 127, 14);
 
+/// Width of data lines, pixels. One: plotters joins wider polylines with mitres, and the
+/// sharp zig-zags of noisy per-scan data then grow spikes far beyond the data.
+pub const DATA_LINE_PX: u32 = 1;
+
 static FONT_REGISTERED: Once = Once::new();
 
 /// Registers the embedded font (once per process).
