@@ -369,6 +369,9 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         EstimatorArg::Odometry => EstimatorChoice::OdometryOnly,
     };
     let rep = replay::replay(&src, est).map_err(|e| e.to_string())?;
+    for w in &rep.warnings {
+        eprintln!("host-sim: warning: {w}");
+    }
     let has_truth = !rep.log.samples.is_empty();
     let m = rep.log.metrics();
     if a.json {

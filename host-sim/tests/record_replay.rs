@@ -77,6 +77,7 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     let sources = ReplaySources::in_dir(dir.path()).unwrap();
     let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
     assert_eq!(rep.source.time_source, TimeSource::Sidecar);
+    assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
     assert_eq!(rep.source.scans, log.scans.len());
     assert_eq!(rep.source.scored_scans, log.samples.len());
     assert_eq!(rep.log.statuses, log.statuses);
@@ -94,12 +95,17 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     assert!(m_run.localizer.position_rms_m < m_run.odometry.position_rms_m);
 
     // Without the sidecar the scanner's own clock is used (offset by its power-up time):
-    // the odometry is then on another clock, and the replay says so by its figures, not
-    // by a crash.
+    // the odometry is then on another clock, and the replay warns instead of failing.
     std::fs::remove_file(dir.path().join(files::SCANNER_TIMES)).unwrap();
     let sources = ReplaySources::in_dir(dir.path()).unwrap();
     let clock = replay::replay(&sources, EstimatorChoice::OdometryOnly).unwrap();
     assert_eq!(clock.source.time_source, TimeSource::ScannerClock);
+    assert_eq!(clock.warnings.len(), 1);
+    assert!(
+        clock.warnings[0].contains("different clocks"),
+        "{:?}",
+        clock.warnings
+    );
     let dt = clock.steps[0].t_s - log.samples[0].t_s;
     assert!(
         (dt - record::scanner_telegram::POWER_UP_BEFORE_RUN_S).abs() < 1e-6,
@@ -153,6 +159,7 @@ fn replays_a_real_lms511_capture_without_ground_truth() {
     let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
     assert_eq!(rep.source.scans, 174);
     assert_eq!(rep.source.time_source, TimeSource::Capture);
+    assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
     assert!(
         rep.source.other_frames > 0,
         "the start-up dialogue is skipped"

@@ -206,6 +206,24 @@ pub struct Replay {
     pub source: ScanSummary,
     /// The stored map the localiser used.
     pub map: Box<TunnelMap>,
+    /// Things in the inputs that look wrong but do not stop the replay (e.g. odometry and
+    /// scans on different clocks), for the user to read.
+    pub warnings: Vec<String>,
+}
+
+/// Warns when the odometry and the scans do not overlap in time: they are then on different
+/// clocks (e.g. a raw stream timed by the scanner's clock since power-up).
+fn clock_warning(
+    odometry: &[crate::vehicle::odometry::OdometrySample],
+    scans: &[crate::lidar::LidarScan],
+) -> Option<String> {
+    let (o0, o1) = (odometry.first()?.t_s, odometry.last()?.t_s);
+    let (s0, s1) = (scans.first()?.t_s, scans.last()?.t_s);
+    (o1 < s0 || o0 > s1).then(|| {
+        format!(
+            "the odometry (t = {o0:.3}…{o1:.3} s) and the scans (t = {s0:.3}…{s1:.3} s) do not overlap: they are on different clocks; give the scans' receive times (--scanner-times) or put the odometry on the scans' clock"
+        )
+    })
 }
 
 /// What the scanner recording held.
@@ -248,6 +266,9 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         &scenario.lidar,
     )?;
     let odometry = odometry_csv::read(&sources.odometry)?;
+    let warnings: Vec<String> = clock_warning(&odometry, &recorded.scans)
+        .into_iter()
+        .collect();
     let truth = match &sources.ground_truth {
         Some(p) => Some(truth_csv::read(p)?),
         None => None,
@@ -327,6 +348,7 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         log,
         source,
         map,
+        warnings,
     })
 }
 
