@@ -32,7 +32,8 @@ world frame of the map (x, y in metres; headings in radians, counter-clockwise, 
     channel (remission output off). Decode it with `sick-dump {scanner}` (lidar-driver).
 
 {times}
-    Columns: index, t_s (time the telegram was received by the vehicle computer, s),
+    Columns: index, t_s (the vehicle computer's time stamp of the telegram, s; the simulation
+    delivers each scan at the instant it is taken, a real logger stamps it on receipt),
     offset_bytes and length_bytes (where the telegram sits in {scanner}).
 
 {odometry}
