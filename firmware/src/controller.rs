@@ -20,11 +20,11 @@ use loc_core::scan::{Scan, LMS511_MAX_BEAMS};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::board::{Board, ExitStatus};
-use crate::lidar_link::UartLink;
 use crate::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 use crate::recorded;
 use crate::replay::{INITIAL_ERROR, INITIAL_SIGMA};
 use crate::scan_input::{load_scan, ScanInputError};
+use lidar_driver::transport::FixedLink;
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
@@ -161,7 +161,7 @@ pub fn run<B: Board>(
         // The session reads the clock a few times per poll; one reading per poll suffices.
         let now_ms = board.now_ms();
         let clock = move || now_ms;
-        let frame = match session.poll(&mut UartLink::new(board.serial()), &clock) {
+        let frame = match session.poll(&mut FixedLink(board.serial()), &clock) {
             Event::Scan(telegram) => {
                 let t0 = board.counter_now();
                 let result = controller.on_scan(&telegram);

@@ -15,7 +15,6 @@ pub mod board;
 pub mod controller;
 pub mod fault;
 pub mod instruction_loop;
-pub mod lidar_link;
 pub mod math_costs;
 pub mod pipeline;
 pub mod pose_frame;
