@@ -154,7 +154,8 @@ fn unpaired(world: Point2, gate_m: f32) -> Association {
 /// Decides between a full association and a cheap re-projection: full on the first call
 /// and whenever the pose has moved more than `MAX_SHIFT_M` / `MAX_TURN_RAD` since the last
 /// full association (a point 20 m out moves 5 cm per 0.0025 rad); landmark points are
-/// searched again when it moved more than a tenth of that since their last search.
+/// searched again when it moved more than a quarter of that (1.25 cm / 0.000625 rad) since
+/// their last search.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct AssociationSchedule {
     last_full: Option<Pose2>,
@@ -196,7 +197,7 @@ impl AssociationSchedule {
             self.last_landmark = Some(pose);
             associate(map, points, pose, gate_m, out)
         } else {
-            let search = moved(self.last_landmark, 0.1);
+            let search = moved(self.last_landmark, 0.25);
             if search {
                 self.last_landmark = Some(pose);
             }
