@@ -60,6 +60,16 @@ pub fn comparison_table(columns: &[Column<'_>]) -> String {
             Box::new(|c| length(accuracy(c).across_rms_m)),
         ),
         (
+            "  odometry distance error",
+            Box::new(|c| {
+                if c.odometry {
+                    length(c.metrics.odometry_distance_error_rms_m)
+                } else {
+                    "-".into()
+                }
+            }),
+        ),
+        (
             "heading RMS",
             Box::new(|c| angle(accuracy(c).heading_rms_rad)),
         ),
