@@ -58,33 +58,32 @@ pub fn select_match_points<P: VehiclePoint>(
         .min(n_wall)
         .min(MAX_MATCH_POINTS);
     let landmark_budget = MAX_MATCH_POINTS - wall_budget;
+    // One pass: every landmark point (up to its budget) and wall points spread in x, half
+    // the wall budget per wall (far wall points pin the heading best).
+    let per_wall = (wall_budget / 2).max(1) as f32;
+    let step = span.map(|(lo, hi)| if hi > lo { (hi - lo) / per_wall } else { 0.0 });
+    let mut last_x = [f32::NEG_INFINITY; 2];
+    let (mut landmarks, mut walls) = (0usize, 0usize);
     for (p, l) in pairs() {
-        if l == PointLabel::Landmark && out.len() < landmark_budget && out.push(p).is_ok() {
-            counts.landmark += 1;
-        }
-    }
-
-    if wall_budget > 0 {
-        // Half the budget per wall, spread in x: far wall points pin the heading best.
-        let per_wall = (wall_budget / 2).max(1) as f32;
-        let step = span.map(|(lo, hi)| if hi > lo { (hi - lo) / per_wall } else { 0.0 });
-        let mut last_x = [f32::NEG_INFINITY; 2];
-        let mut kept = 0usize;
-        for (p, l) in pairs() {
-            if !l.is_wall() || kept >= wall_budget {
-                continue;
+        if l == PointLabel::Landmark {
+            if landmarks < landmark_budget && out.push(p).is_ok() {
+                landmarks += 1;
             }
+        } else if l.is_wall() && walls < wall_budget {
             let slot = wall_slot(l);
             let (Some(last), Some(&step)) = (last_x.get_mut(slot), step.get(slot)) else {
                 continue;
             };
             if crate::math::abs(p.x_m - *last) >= step && out.push(p).is_ok() {
                 *last = p.x_m;
-                kept += 1;
-                counts.wall += 1;
+                walls += 1;
             }
         }
-    } else if n_landmark == 0 && n_outlier > 0 {
+    }
+    counts.landmark = u16::try_from(landmarks).unwrap_or(u16::MAX);
+    counts.wall = u16::try_from(walls).unwrap_or(u16::MAX);
+
+    if wall_budget == 0 && n_landmark == 0 && n_outlier > 0 {
         let stride = n_outlier
             .div_ceil(usize::from(max_wall_points).max(1))
             .max(1);

@@ -284,13 +284,11 @@ fn label_point(
     // Nearer wall by vertical residual (one polynomial evaluation each); the normal
     // distance (a square root) only for that one. Inward: positive into the tunnel (below
     // the left wall, above the right one).
-    let l = left.map(|w| (PointLabel::LeftWall, &w.cubic, -1.0f32));
-    let r = right.map(|w| (PointLabel::RightWall, &w.cubic, 1.0f32));
-    let nearest = match (l, r) {
+    let l = left.map(|w| (PointLabel::LeftWall, w.cubic.residual_and_slope(p), -1.0f32));
+    let r = right.map(|w| (PointLabel::RightWall, w.cubic.residual_and_slope(p), 1.0f32));
+    let (wall, (residual, slope), sign) = match (l, r) {
         (Some(l), Some(r)) => {
-            let (rl, _) = l.1.residual_and_slope(p);
-            let (rr, _) = r.1.residual_and_slope(p);
-            if math::abs(rl) <= math::abs(rr) {
+            if math::abs(l.1 .0) <= math::abs(r.1 .0) {
                 l
             } else {
                 r
@@ -299,9 +297,7 @@ fn label_point(
         (Some(w), None) | (None, Some(w)) => w,
         (None, None) => return PointLabel::Outlier,
     };
-    let (wall, cubic, sign) = nearest;
-    let nearest = (wall, sign * cubic.signed_distance_m(p));
-    let (wall, inward_m) = nearest;
+    let inward_m = sign * residual / math::sqrt(1.0 + slope * slope);
     if math::abs(inward_m) <= config.wall_tolerance_m {
         wall
     } else if inward_m > 0.0 && inward_m <= config.landmark_band_inward_m
