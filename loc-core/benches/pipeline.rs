@@ -7,6 +7,13 @@
 //! 1 cm across, 0.2°): the steady tracking case.
 //!
 //! Short run: `cargo bench -p loc-core --bench pipeline -- --warm-up-time 1 --measurement-time 3`.
+//!
+//! Measured 2026-11-22 on the shared 2-core build machine under load ≈ 5 (so wall-clock
+//! figures are inflated): strip 54 µs, select 10 µs, match 113 µs (Hausdorff, 6 iterations)
+//! / 61 µs (ICP, 3 iterations), filter 0.9 µs; end to end 174 µs (Hausdorff) / 128 µs (ICP).
+//! Load-independent x86-64 instruction counts (callgrind, per scan): strip 365 k, select
+//! 64 k, match 564 k / 361 k (≈ 60 % of it in `StoredMap::nearest`, ≈ 1.1 k per query),
+//! filter 3.6 k; end to end 1.00 M (Hausdorff) / 0.79 M (ICP).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use loc_core::filter::{Ekf, OdometryIncrement, OdometryNoise, UpdateConfig};
