@@ -12,8 +12,8 @@
 //! figures are inflated): strip 54 µs, select 10 µs, match 113 µs (Hausdorff, 6 iterations)
 //! / 61 µs (ICP, 3 iterations), filter 0.9 µs; end to end 174 µs (Hausdorff) / 128 µs (ICP).
 //! Load-independent x86-64 instruction counts (callgrind, per scan): strip 365 k, select
-//! 64 k, match 564 k / 361 k (≈ 60 % of it in `StoredMap::nearest`, ≈ 1.1 k per query),
-//! filter 3.6 k; end to end 1.00 M (Hausdorff) / 0.79 M (ICP).
+//! 64 k, match 544 k / 361 k (≈ 60 % of it in `StoredMap::nearest`, ≈ 1.1 k per query),
+//! filter 3.6 k; end to end 0.98 M (Hausdorff) / 0.79 M (ICP).
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use loc_core::filter::{Ekf, OdometryIncrement, OdometryNoise, UpdateConfig};

@@ -10,7 +10,7 @@
 //!    ([`crate::matching::match_scan`]) against the map;
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions.
 //!
-//! Memory: a `Localizer` holds its scratch buffers (≈ 30 KiB: point labels, selected
+//! Memory: a `Localizer` holds its scratch buffers (≈ 34 KiB: point labels, selected
 //! points, the match workspace); keep it in a `static` or on a large stack. No allocation,
 //! no panics, bounded time per call.
 

@@ -27,8 +27,7 @@ pub struct Association {
     pub segment: Segment,
     /// True when the segment is part of a landmark (re-searched at every iteration).
     pub landmark: bool,
-    /// Index of the scan point in the slice associated (entries get reordered by
-    /// [`select_k_best`]).
+    /// Index of the scan point in the slice associated.
     pub point: u16,
 }
 
@@ -206,20 +205,28 @@ impl AssociationSchedule {
     }
 }
 
-/// Reorders `assoc` so its first `k` entries are the `k` smallest distances (in no
-/// particular order) and entry `k − 1` is the k-th ranked one; returns that k-th distance.
-/// O(n) expected (introselect), no full sort. `None` for `k = 0` or `k > len`.
-pub fn select_k_best(assoc: &mut [Association], k: usize) -> Option<f32> {
+/// A selection key: a point's distance to the map (metres) and its index in the
+/// association buffer. Selecting over 8-byte keys instead of whole associations keeps the
+/// K-best selection cheap.
+pub type DistanceKey = (f32, u16);
+
+/// Fills `keys` from `assoc` (one key per association, in order) and reorders them so the
+/// first `k` are the `k` smallest distances (in no particular order) with entry `k − 1` the
+/// k-th ranked; returns that k-th distance. O(n) expected (introselect), no full sort.
+/// `None` for `k = 0` or `k` beyond the shorter of the two buffers.
+pub fn select_k_best(assoc: &[Association], keys: &mut [DistanceKey], k: usize) -> Option<f32> {
+    let n = assoc.len().min(keys.len());
     let kth = k.checked_sub(1)?;
-    if kth >= assoc.len() {
+    if kth >= n {
         return None;
     }
-    let (_, nth, _) = assoc.select_nth_unstable_by(kth, |a, b| {
-        a.distance_m
-            .partial_cmp(&b.distance_m)
-            .unwrap_or(Ordering::Equal)
-    });
-    Some(nth.distance_m)
+    for (i, (key, a)) in keys.iter_mut().zip(assoc.iter()).enumerate() {
+        *key = (a.distance_m, u16::try_from(i).unwrap_or(u16::MAX));
+    }
+    let keys = keys.get_mut(..n)?;
+    let (_, nth, _) =
+        keys.select_nth_unstable_by(kth, |a, b| a.0.partial_cmp(&b.0).unwrap_or(Ordering::Equal));
+    Some(nth.0)
 }
 
 #[cfg(test)]
@@ -235,13 +242,15 @@ mod tests {
 
     #[test]
     fn selects_k_smallest() {
-        let mut v = [a(5.0), a(1.0), a(4.0), a(2.0), a(3.0), a(0.5)];
-        let kth = select_k_best(&mut v, 3).unwrap();
+        let v = [a(5.0), a(1.0), a(4.0), a(2.0), a(3.0), a(0.5)];
+        let mut keys = [(0.0f32, 0u16); 8];
+        let kth = select_k_best(&v, &mut keys, 3).unwrap();
         assert_eq!(kth, 2.0);
-        let mut first: [f32; 3] = core::array::from_fn(|i| v[i].distance_m);
+        let mut first: [f32; 3] = core::array::from_fn(|i| v[usize::from(keys[i].1)].distance_m);
         first.sort_by(|x, y| x.partial_cmp(y).unwrap());
         assert_eq!(first, [0.5, 1.0, 2.0]);
-        assert!(select_k_best(&mut v, 0).is_none());
-        assert!(select_k_best(&mut v, 7).is_none());
+        assert!(select_k_best(&v, &mut keys, 0).is_none());
+        assert!(select_k_best(&v, &mut keys, 7).is_none());
+        assert!(select_k_best(&v, &mut keys[..2], 3).is_none());
     }
 }

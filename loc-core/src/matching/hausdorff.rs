@@ -2,7 +2,7 @@
 //! point-to-map distances with re-association and re-selection every iteration, and
 //! Levenberg damping on the Hausdorff cost (see the module docs of [`super`]).
 
-use super::association::{select_k_best, Association, AssociationSchedule};
+use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
 use super::information::{truncated_step, NormalEquations};
 use super::{apply_step, step_size, KBest, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
@@ -15,6 +15,7 @@ pub(super) fn run<M: MapQuery>(
     initial: Pose2,
     config: &MatchConfig,
     assoc: &mut [Association],
+    keys: &mut [DistanceKey],
 ) -> Result<Outcome, MatchError> {
     let m = points.len().min(assoc.len());
     let assoc = assoc.get_mut(..m).unwrap_or_default();
@@ -37,10 +38,10 @@ pub(super) fn run<M: MapQuery>(
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
         let associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
-        let kth = select_k_best(assoc, k).unwrap_or(config.association_gate_m);
-        let best_k = assoc.get(..k).unwrap_or_default();
+        let kth = select_k_best(assoc, keys, k).unwrap_or(config.association_gate_m);
+        let best_k = keys.get(..k).unwrap_or_default();
         let cost = match config.k_best {
-            KBest::TrimmedMean => best_k.iter().map(|a| a.distance_m).sum::<f32>() / k as f32,
+            KBest::TrimmedMean => best_k.iter().map(|key| key.0).sum::<f32>() / k as f32,
             KBest::KthRanked => kth,
         };
         // Re-selecting the K best makes the cost jitter at the noise level near the optimum:
@@ -57,7 +58,10 @@ pub(super) fn run<M: MapQuery>(
                 }
             } else {
                 let mut eq = NormalEquations::default();
-                for a in best_k.iter().filter(|a| a.associated) {
+                let selected = best_k
+                    .iter()
+                    .filter_map(|key| assoc.get(usize::from(key.1)));
+                for a in selected.filter(|a| a.associated) {
                     let r = a.residual_m();
                     let w = match config.k_best {
                         KBest::TrimmedMean => 1.0 / math::abs(r).max(delta_m),

@@ -56,7 +56,9 @@ mod information;
 mod points;
 mod prealign;
 
-pub use association::{associate, reproject, select_k_best, Association, AssociationSchedule};
+pub use association::{
+    associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
+};
 pub use guided::{match_scan_with_prealign, GuidedMatch};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
@@ -236,11 +238,12 @@ impl fmt::Display for MatchError {
     }
 }
 
-/// Scratch memory of one match (24 KiB: 512 associations of 48 bytes): keep one, in the [`crate::localizer`] or a
+/// Scratch memory of one match (28 KiB: 512 associations of 48 bytes and 512 selection keys): keep one, in the [`crate::localizer`] or a
 /// static, rather than on a small stack.
 #[derive(Debug, Clone)]
 pub struct MatchWorkspace {
     assoc: [Association; MAX_MATCH_POINTS],
+    keys: [DistanceKey; MAX_MATCH_POINTS],
 }
 
 impl Default for MatchWorkspace {
@@ -263,6 +266,7 @@ impl MatchWorkspace {
                 landmark: false,
                 point: 0,
             }; MAX_MATCH_POINTS],
+            keys: [(0.0, 0); MAX_MATCH_POINTS],
         }
     }
 }
@@ -294,9 +298,14 @@ pub fn match_scan<M: MapQuery>(
         return Err(MatchError::NonFiniteInput);
     }
     let outcome = match config.matcher {
-        MatcherKind::Hausdorff => {
-            hausdorff::run(map, points, initial, config, &mut workspace.assoc)
-        }
+        MatcherKind::Hausdorff => hausdorff::run(
+            map,
+            points,
+            initial,
+            config,
+            &mut workspace.assoc,
+            &mut workspace.keys,
+        ),
         MatcherKind::Icp => icp::run(map, points, initial, config, &mut workspace.assoc),
     }?;
     Ok(finish(outcome, config))
