@@ -195,6 +195,23 @@ pub fn scenario_line(log: &RunLog) -> String {
     text
 }
 
+/// How many scans ended in each estimator status, e.g. `scans: 8384 tracking, 19
+/// degenerate (along-tunnel unobserved)`.
+pub fn status_line(log: &RunLog) -> String {
+    let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for s in &log.statuses {
+        *counts.entry(s.as_str()).or_insert(0) += 1;
+    }
+    let parts: Vec<String> = counts
+        .iter()
+        .map(|(k, n)| match *k {
+            "degenerate" => format!("{n} degenerate (along-tunnel unobserved)"),
+            other => format!("{n} {other}"),
+        })
+        .collect();
+    format!("scans: {}", parts.join(", "))
+}
+
 /// The report of one run: scenario, then the run beside odometry alone.
 pub fn run_report(log: &RunLog, m: &Metrics) -> String {
     let cols = [
@@ -211,7 +228,12 @@ pub fn run_report(log: &RunLog, m: &Metrics) -> String {
             odometry: true,
         },
     ];
-    format!("{}\n\n{}", scenario_line(log), comparison_table(&cols))
+    format!(
+        "{}\n\n{}\n{}",
+        scenario_line(log),
+        comparison_table(&cols),
+        status_line(log)
+    )
 }
 
 #[cfg(test)]
