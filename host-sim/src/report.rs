@@ -255,7 +255,13 @@ mod tests {
         let m = log.metrics();
         let text = run_report(&log, &m);
         assert!(text.contains("paper-10m") && text.contains("landmarks P1"));
-        let table: Vec<&str> = text.lines().skip_while(|l| !l.starts_with("   ")).collect();
+        let table: Vec<&str> = text
+            .lines()
+            .skip_while(|l| !l.starts_with("   "))
+            .take_while(|l| !l.is_empty())
+            .collect();
+        let status = format!("scans: {} odometry", log.samples.len());
+        assert!(text.ends_with(&status), "{text}");
         assert!(table.len() >= 14, "{text}");
         let widths: Vec<usize> = table
             .iter()
