@@ -31,3 +31,7 @@ pub fn load_scan_mm(index: usize, out: &mut [u16; BEAMS_PER_SCAN]) -> bool {
     }
     true
 }
+
+/// The same scans as the raw CoLa-B `sSN LMDscandata` stream an LMS511 sends (what the
+/// emulator replays to the controller).
+pub static SCANS_COLAB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/scans_colab.bin"));

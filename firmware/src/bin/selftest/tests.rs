@@ -6,7 +6,9 @@ use firmware::pipeline::StagedPipeline;
 use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 use firmware::recorded::{self, BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
 use firmware::replay::{self, ReplaySlots, INITIAL_ERROR};
+use firmware::scan_input::load_scan;
 use firmware::test_harness::{check, TestResult, TestRunner};
+use lidar_driver::{Framer, ScanData};
 use loc_core::geometry::Point2;
 use loc_core::localizer::{Localizer, LocalizerConfig};
 use loc_core::map::{MapError, MapQuery, TunnelMap};
@@ -54,6 +56,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
     });
     runner.run("map_loads_from_flash_bytes", || map_loads(board, map));
     runner.run("recorded_scans_strip_to_both_walls", || scans_strip(scan));
+    runner.run("lmdscandata_telegrams_give_the_same_scans", || {
+        telegrams_give_the_same_scans(scan)
+    });
     let map: &'static TunnelMap = map;
     runner.run("localizer_converges_on_recorded_scans", || {
         localizer_converges(board, map, scan, staged, localizer)
@@ -301,5 +306,46 @@ fn localizer_converges(
     check(
         report.statuses[2] as usize * 4 <= SCAN_COUNT,
         "more than a quarter of the scans rejected",
+    )
+}
+
+/// Every CoLa-B `LMDscandata` telegram of the recording, framed by `lidar-driver` and
+/// converted by `scan_input`, gives exactly the points of the raw-ranges path.
+fn telegrams_give_the_same_scans(scan: &mut Scan) -> TestResult {
+    let sensor = LocalizerConfig::default().sensor;
+    let mut framer = Framer::new([0u8; 4096]);
+    let mut raw = [0u16; LMS511_MAX_BEAMS];
+    let mut expected_raw = [0u16; BEAMS_PER_SCAN];
+    let mut expected = Scan::new();
+    let mut frames = 0usize;
+    let mut outcome: TestResult = Ok(());
+    framer.feed(recorded::SCANS_COLAB, |frame| {
+        if outcome.is_err() {
+            return;
+        }
+        outcome = (|| {
+            let frame = frame.map_err(|_| "the framer rejected a recorded telegram")?;
+            let telegram =
+                ScanData::new_checked(frame).map_err(|_| "a recorded telegram did not decode")?;
+            let beams = load_scan(&telegram, &sensor, &mut raw, scan)
+                .map_err(|_| "scan_input refused a recorded telegram")?;
+            check(beams == BEAMS_PER_SCAN, "telegram without 1141 beams")?;
+            check(
+                recorded::load_scan_mm(frames, &mut expected_raw),
+                "recorded scan missing",
+            )?;
+            expected.load_raw_mm(&sensor, &expected_raw, 1.0, 0.0);
+            check(
+                scan.points() == expected.points(),
+                "telegram scan differs from the raw-range scan",
+            )?;
+            frames += 1;
+            Ok(())
+        })();
+    });
+    outcome?;
+    check(
+        frames == SCAN_COUNT,
+        "not every recorded telegram was framed",
     )
 }
