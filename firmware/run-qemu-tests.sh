@@ -88,6 +88,19 @@ else
   fail "selftest ELF missing"
 fi
 
+echo "--> fault handling under QEMU (a panic and a HardFault must log and exit with failure)"
+for check in panic:fault-check-panic HardFault:fault-check-hardfault; do
+  what=${check%%:*} elf=$elf_dir/${check#*:}
+  QEMU_TIMEOUT_S=60 run_qemu "$elf" "$work/uart0-fault.bin" >"$work/fault.log" 2>&1
+  status=$?
+  cat "$work/fault.log"
+  if [ "$status" -eq 1 ] && grep -q "$what" "$work/fault.log"; then
+    pass "$what logs and exits QEMU with failure"
+  else
+    fail "$what handling (QEMU status $status; 124 = hung until the time-out)"
+  fi
+done
+
 echo "--> benchmark under QEMU (instructions per scan, budget check)"
 if [ -x "$elf_dir/bench" ]; then
   run_qemu "$elf_dir/bench" "$work/uart0-bench.bin" | tee "$work/bench.log"
