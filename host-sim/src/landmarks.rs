@@ -163,7 +163,8 @@ impl LandmarkChoice {
             LandmarkChoice::None => Vec::new(),
             LandmarkChoice::Shape(s) => s.genome.to_genes()[..s.model.gene_count()]
                 .iter()
-                .map(|&v| f64::from(v))
+                // Genes are f32 in loc-core: round to the micrometre so 0.3 reads 0.3.
+                .map(|&v| (f64::from(v) * 1e6).round() / 1e6)
                 .collect(),
         }
     }

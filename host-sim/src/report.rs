@@ -173,12 +173,12 @@ pub fn scenario_line(log: &RunLog) -> String {
     if choice != "none" {
         let _ = write!(
             text,
-            "\nlandmarks {choice} (genes {:?}) on {} walls: {} designed, {} missing, {} damaged; matcher {}",
+            "\nlandmarks {choice} (genes {:?}) on {}: {} designed, {} missing, {} damaged; matcher {}",
             s.landmark_choice().map(|c| c.genes()).unwrap_or_default(),
             match s.landmarks.walls {
-                crate::world::layout::WallChoice::Both => "both",
-                crate::world::layout::WallChoice::Left => "the left",
-                crate::world::layout::WallChoice::Right => "the right",
+                crate::world::layout::WallChoice::Both => "both walls",
+                crate::world::layout::WallChoice::Left => "the left wall",
+                crate::world::layout::WallChoice::Right => "the right wall",
             },
             w.landmarks_designed,
             w.landmarks_missing,

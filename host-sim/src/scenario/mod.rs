@@ -679,6 +679,16 @@ cruise_speed_mps = 2.0
     }
 
     #[test]
+    fn the_shipped_example_builds() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/s-bend-400m.toml");
+        let s = Scenario::from_file(&path).unwrap();
+        let w = s.build_world().unwrap();
+        assert!((w.centerline().length_m() - 400.0).abs() < 1.0);
+        assert!(w.placements().len() > 80);
+        assert_eq!(s.landmark_choice().unwrap().code(), "F4");
+    }
+
+    #[test]
     fn csv_centre_line_relative_to_the_file() {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("line.csv"), "x,y\n0,0\n30,0\n60,5\n").unwrap();
