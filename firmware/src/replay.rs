@@ -11,7 +11,7 @@ use loc_core::scan::Scan;
 use nalgebra::Matrix3;
 
 use crate::board::Board;
-use crate::pipeline::{Stage, StagedPipeline};
+use crate::pipeline::{Stage, StageCosts, StagedPipeline};
 use crate::recorded::{self, BEAMS_PER_SCAN, ODOMETRY, SCAN_COUNT, TRUE_POSES};
 use crate::stage_stats::StageStats;
 
@@ -35,6 +35,8 @@ pub struct ReplayReport {
     /// The `Localizer` per scan, without the first scan (which pulls the initial pose error
     /// in, the acquisition case): the steady tracking cost.
     pub localizer_tracking: StageStats,
+    /// The scan with the largest staged end-to-end cost, and its per-stage costs.
+    pub worst_scan: (usize, StageCosts),
     /// Scans after which the staged chain and the `Localizer` disagreed on the pose (they
     /// run the same code: must be 0).
     pub pose_mismatches: u32,
@@ -117,6 +119,7 @@ pub fn replay<'m, B: Board>(
         staged_end_to_end: StageStats::new(),
         localizer_end_to_end: StageStats::new(),
         localizer_tracking: StageStats::new(),
+        worst_scan: (0, StageCosts::default()),
         pose_mismatches: 0,
         statuses: [0; 3],
         final_error_m: f32::INFINITY,
@@ -132,6 +135,9 @@ pub fn replay<'m, B: Board>(
         let outcome = chain.process(board, map, scan, &raw, &inc);
         for (s, c) in report.stages.iter_mut().zip(outcome.costs.0) {
             s.record(c);
+        }
+        if outcome.costs.end_to_end() > report.worst_scan.1.end_to_end() {
+            report.worst_scan = (k, outcome.costs);
         }
         report.staged_end_to_end.record(outcome.costs.end_to_end());
 

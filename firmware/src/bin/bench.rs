@@ -131,6 +131,17 @@ fn main() -> ! {
         report.max_late_error_m
     );
 
+    let (worst_k, worst) = report.worst_scan;
+    defmt::println!("worst scan {=usize}:", worst_k);
+    for (stage, cost) in Stage::ALL.iter().zip(worst.0) {
+        defmt::println!(
+            "  {=str}: {=u64} ({=u64} % of the budget)",
+            stage.name(),
+            cost,
+            cost * 100 / BUDGET_INSTRUCTIONS
+        );
+    }
+
     let mut ok = true;
     if report.pose_mismatches != 0 {
         defmt::println!(
@@ -148,9 +159,11 @@ fn main() -> ! {
         );
     } else {
         defmt::println!(
-            "budget FAIL: max {=u64} > {=u64} instructions per scan end to end",
+            "budget FAIL: max {=u64} > {=u64} instructions per scan end to end ({=u64} over, {=u64} % of the budget)",
             worst,
-            BUDGET_INSTRUCTIONS
+            BUDGET_INSTRUCTIONS,
+            worst - BUDGET_INSTRUCTIONS,
+            worst * 100 / BUDGET_INSTRUCTIONS
         );
         ok = false;
     }

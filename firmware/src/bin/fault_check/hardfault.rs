@@ -14,6 +14,9 @@ fn main() -> ! {
     let _board = SelectedBoard::take();
     // SAFETY: deliberately faulting read; the HardFault handler ends the program.
     let v = unsafe { core::ptr::read_volatile(UNMAPPED as *const u32) };
-    defmt::error!("read of unmapped memory returned {=u32} instead of faulting", v);
+    defmt::error!(
+        "read of unmapped memory returned {=u32} instead of faulting",
+        v
+    );
     SelectedBoard::exit(ExitStatus::Success)
 }
