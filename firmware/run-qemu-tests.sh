@@ -35,13 +35,16 @@ fi
 
 # Runs ELF under QEMU with the instruction-counting clock, UART0 captured to $2, and prints
 # the decoded defmt log. Status: the firmware's semihosting exit (0 ok, 1 failure), 124 timeout.
+# Extra QEMU arguments may follow (e.g. a map file loaded into the map flash region).
 run_qemu() {
   local elf=$1 uart=$2
+  shift 2
   timeout "$QEMU_TIMEOUT_S" qemu-system-arm \
     -machine mps2-an386 -nographic \
     -semihosting-config enable=on,target=native \
     -icount shift=0 \
     -serial "file:$uart" \
+    "$@" \
     -kernel "$elf" >"$work/raw.defmt"
   local status=$?
   defmt-print -e "$elf" <"$work/raw.defmt" || status=${status:-1}
@@ -63,7 +66,10 @@ fi
 
 echo "--> selftest under QEMU"
 if [ -x "$elf_dir/selftest" ]; then
-  run_qemu "$elf_dir/selftest" "$work/uart0.bin" | tee "$work/selftest.log"
+  # The recorded map goes into the board's map flash region, as a flasher would put it.
+  map_file=$(ls -t "$elf_dir"/build/firmware-*/out/map.bin 2>/dev/null | head -1)
+  run_qemu "$elf_dir/selftest" "$work/uart0.bin" \
+    -device "loader,file=$map_file,addr=0x00300000" | tee "$work/selftest.log"
   status=${PIPESTATUS[0]}
   # The test binary's own counts become part of this script's count.
   read -r st_pass st_fail < <(grep -E '^[0-9]+ passed, [0-9]+ failed$' "$work/selftest.log" \

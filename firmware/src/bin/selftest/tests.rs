@@ -1,6 +1,7 @@
 //! The on-target tests themselves, one function each, registered in [`run_all`].
 
 use firmware::board::{Board, CounterUnit, SelectedBoard};
+use firmware::controller::{self, MapSource};
 use firmware::instruction_loop;
 use firmware::pipeline::StagedPipeline;
 use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
@@ -55,6 +56,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         damaged_map_is_rejected(map, map_copy)
     });
     runner.run("map_loads_from_flash_bytes", || map_loads(board, map));
+    runner.run("map_flash_region_holds_the_flashed_map", || {
+        map_region_loads(board, map)
+    });
     runner.run("recorded_scans_strip_to_both_walls", || scans_strip(scan));
     runner.run("lmdscandata_telegrams_give_the_same_scans", || {
         telegrams_give_the_same_scans(scan)
@@ -348,4 +352,29 @@ fn telegrams_give_the_same_scans(scan: &mut Scan) -> TestResult {
         frames == SCAN_COUNT,
         "not every recorded telegram was framed",
     )
+}
+
+/// The board's map flash region holds the map the test runner put there (QEMU
+/// `-device loader,file=map.bin,addr=0x00300000`), and the controller's map loading takes it
+/// from there, starting at the tunnel's chainage 0 (the world origin for the test kit).
+fn map_region_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
+    let region = board.map_region();
+    check(
+        region.get(..MAP_BYTES_LEN) == Some(recorded::MAP_BYTES),
+        "map flash region does not hold the recorded map (run QEMU with -device loader,file=…/map.bin,addr=0x00300000)",
+    )?;
+    let (source, pose, _) =
+        controller::load_map(region, map).map_err(|_| "map in the flash region did not load")?;
+    check(
+        source == MapSource::FlashRegion,
+        "controller did not take the flashed map",
+    )?;
+    check(
+        pose.x_m.abs() < 1e-3 && pose.y_m.abs() < 1e-3 && pose.theta_rad.abs() < 1e-3,
+        "start pose of a flashed map is not the tunnel's chainage 0",
+    )?;
+    // Leave the recorded map loaded for the tests after this one.
+    replay::load_map(board, map)
+        .map(|_| ())
+        .map_err(|_| "the flashed map did not reload")
 }
