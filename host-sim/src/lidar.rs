@@ -264,6 +264,15 @@ mod tests {
         };
         let exact = Lms511::new(spec0, 1).scan(&grid, (0.0, 0.5, 0.0), 0.0);
         assert_eq!(exact.ranges_mm[1110], 1500);
+        // A systematic error shifts every echo by the same amount.
+        let biased = LidarSpec {
+            range_noise_m: 0.0,
+            systematic_error_m: 0.025,
+            ..LidarSpec::default()
+        };
+        let b = Lms511::new(biased, 1).scan(&grid, (0.0, 0.5, 0.0), 0.0);
+        assert_eq!(b.ranges_mm[1110], 1525);
+        assert_eq!(b.ranges_mm[570], 0, "no echo stays no echo");
         assert_eq!(range_to_mm(81.0, 80.0), 0);
         assert_eq!(range_to_mm(f64::NAN, 80.0), 0);
     }
