@@ -212,6 +212,45 @@ pub fn status_line(log: &RunLog) -> String {
     format!("scans: {}", parts.join(", "))
 }
 
+/// Position error against distance driven, in 100 m stretches (from the 10 m bins of the
+/// metrics): `to 100 m: 7.5 mm (odometry 1.43 m)`, one line per stretch. Empty for runs
+/// shorter than 150 m.
+pub fn distance_lines(m: &Metrics) -> String {
+    if m.distance_m < 150.0 {
+        return String::new();
+    }
+    let mut out =
+        String::from("position RMS against distance driven (localiser / odometry alone):\n");
+    let mut stretch = 100.0;
+    while stretch < m.distance_m + 100.0 {
+        let bins: Vec<_> = m
+            .by_distance
+            .iter()
+            .filter(|b| b.distance_m > stretch - 100.0 && b.distance_m <= stretch)
+            .collect();
+        if !bins.is_empty() {
+            let n = bins.len() as f64;
+            let loc = (bins.iter().map(|b| b.position_rms_m.powi(2)).sum::<f64>() / n).sqrt();
+            let odo = (bins
+                .iter()
+                .map(|b| b.odometry_position_rms_m.powi(2))
+                .sum::<f64>()
+                / n)
+                .sqrt();
+            let _ = writeln!(
+                out,
+                "  {:>5.0}–{:<5.0} m  {:>10} / {}",
+                stretch - 100.0,
+                stretch.min(m.distance_m),
+                length(loc),
+                length(odo)
+            );
+        }
+        stretch += 100.0;
+    }
+    out
+}
+
 /// The report of one run: scenario, then the run beside odometry alone.
 pub fn run_report(log: &RunLog, m: &Metrics) -> String {
     let cols = [
@@ -228,12 +267,18 @@ pub fn run_report(log: &RunLog, m: &Metrics) -> String {
             odometry: true,
         },
     ];
-    format!(
+    let by_distance = distance_lines(m);
+    let mut text = format!(
         "{}\n\n{}\n{}",
         scenario_line(log),
         comparison_table(&cols),
         status_line(log)
-    )
+    );
+    if !by_distance.is_empty() {
+        text.push_str("\n\n");
+        text.push_str(by_distance.trim_end());
+    }
+    text
 }
 
 #[cfg(test)]
@@ -269,7 +314,53 @@ mod tests {
             .map(|l| l.chars().count())
             .collect();
         assert!(widths.windows(2).all(|w| w[0] == w[1]), "{text}");
+        assert!(distance_lines(&m).is_empty(), "a 10 m run has no stretches");
         assert_eq!(length(0.0123), "12.3 mm");
         assert_eq!(length(4.561), "4.56 m");
+    }
+
+    #[test]
+    fn distance_lines_per_100_m() {
+        use crate::metrics::{compute, Sample};
+        use crate::vehicle::SimPose;
+        use crate::world::centerline::{CenterLine, CurvePiece};
+        let line = CenterLine::from_pieces(&[CurvePiece {
+            length_m: 300.0,
+            curvature_per_m: 0.0,
+        }])
+        .unwrap();
+        let p = |x: f64, y: f64| SimPose {
+            x_m: x,
+            y_m: y,
+            theta_rad: 0.0,
+        };
+        // 250 m: the estimate 1 cm off before 100 m and 2 cm after; odometry 1 m off.
+        let samples: Vec<Sample> = (1..=250)
+            .map(|i| {
+                let d = f64::from(i);
+                Sample {
+                    t_s: d,
+                    distance_m: d,
+                    chainage_m: d,
+                    truth: p(d, 0.0),
+                    estimate: p(d, if d <= 100.0 { 0.01 } else { 0.02 }),
+                    odometry: p(d, 1.0),
+                    sigma: (0.0, 0.0, 0.0),
+                    update_us: 1.0,
+                }
+            })
+            .collect();
+        let text = distance_lines(&compute(&line, &samples, 10.0));
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 4, "{text}");
+        assert!(
+            lines[1].contains("10.0 mm") && lines[1].contains("1.00 m"),
+            "{text}"
+        );
+        // The 100–110 m bin still holds the sample at 100 m (1 cm): 19.9 mm.
+        assert!(
+            lines[2].contains("19.9 mm") && lines[3].contains("–250"),
+            "{text}"
+        );
     }
 }
