@@ -29,8 +29,8 @@ fn closed_loop(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("paper_10m_p1_hausdorff_full_run", |b| {
         b.iter(|| {
-            let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default())
-                .expect("run");
+            let log =
+                run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).expect("run");
             black_box(log.samples.len())
         })
     });
