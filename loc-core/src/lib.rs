@@ -17,9 +17,12 @@
 //!
 //! ## Guarantees
 //! `#![no_std]`, no `alloc`, `#![forbid(unsafe_code)]`; clippy denies `unwrap`, `expect`,
-//! `panic!` and slice indexing outside tests, so no input can make the core panic.
+//! `panic!` and slice indexing outside tests, so no input can make the core panic, and
+//! `f32::max`/`f32::min` (library calls on the M4F; [`math::max`]/[`math::min`] compare).
 #![no_std]
 #![forbid(unsafe_code)]
+// Tests compare against std's f32::max / f32::min freely.
+#![cfg_attr(test, allow(clippy::disallowed_methods))]
 #![cfg_attr(
     not(test),
     deny(
@@ -29,7 +32,9 @@
         clippy::indexing_slicing,
         clippy::unreachable,
         clippy::todo,
-        clippy::unimplemented
+        clippy::unimplemented,
+        // f32::max / f32::min are libcalls on the Cortex-M4F (clippy.toml): math::max / min.
+        clippy::disallowed_methods
     )
 )]
 

@@ -383,5 +383,5 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
 
 /// A bound on the position's standard deviation, metres: `√(σx² + σy²)`.
 fn position_sd_m(p: &Matrix3<f32>) -> f32 {
-    crate::math::sqrt((p.m11 + p.m22).max(0.0))
+    crate::math::sqrt(crate::math::max(p.m11 + p.m22, 0.0))
 }

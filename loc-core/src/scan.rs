@@ -189,23 +189,72 @@ impl DroppedBeams {
     }
 }
 
-/// Why one beam is not kept.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Drop {
-    NoEcho,
-    NonFinite,
-    BelowMin,
-    AboveMax,
-}
-
 /// The valid beams of one scan as vehicle-frame points, in beam order, with the counts of
-/// dropped beams. Fixed capacity [`LMS511_MAX_BEAMS`] (about 23 KiB): build it once and
+/// dropped beams. Fixed capacity [`LMS511_MAX_BEAMS`] (about 32 KiB with the beam-direction
+/// table): build it once and
 /// refill it with the `load_*` methods rather than moving it around on small stacks.
 #[derive(Debug, Clone, Default)]
 pub struct Scan {
     points: heapless::Vec<ScanPoint, LMS511_MAX_BEAMS>,
     dropped: DroppedBeams,
     beams_received: u16,
+    directions: BeamDirections,
+}
+
+/// Unit vectors of the beams in the sensor frame, `(cos, sin)` of `start + i · step`, kept
+/// from one scan to the next while the beam layout stays the same: one `sin_cos` per beam
+/// is about half of the conversion's cost on the Cortex-M4F. The same [`crate::math::sin_cos`]
+/// gives them as a per-beam call would, so points are bit-identical either way.
+#[derive(Debug, Clone)]
+struct BeamDirections {
+    /// Layout the table was computed for (`start_angle_rad`, `step_rad`), `None` when empty.
+    layout: Option<(f32, f32)>,
+    /// Beams computed so far (the table grows with the longest scan seen).
+    len: usize,
+    unit: [Point2; LMS511_MAX_BEAMS],
+}
+
+impl BeamDirections {
+    const fn new() -> Self {
+        Self {
+            layout: None,
+            len: 0,
+            unit: [Point2::ORIGIN; LMS511_MAX_BEAMS],
+        }
+    }
+
+    /// Makes beams `0..beams` of layout `g` available to [`BeamDirections::unit`]
+    /// (computed once per layout; later scans of the same layout find them ready).
+    fn prepare(&mut self, g: &ScanGeometry, beams: usize) {
+        let layout = (g.start_angle_rad, g.step_rad);
+        if self.layout != Some(layout) {
+            self.layout = Some(layout);
+            self.len = 0;
+        }
+        let beams = beams.min(LMS511_MAX_BEAMS);
+        while self.len < beams {
+            let Some(slot) = self.unit.get_mut(self.len) else {
+                break;
+            };
+            *slot = Point2::from_polar(1.0, g.beam_angle_rad(self.len));
+            self.len += 1;
+        }
+    }
+
+    /// The unit vector of beam `index` of the prepared layout `g`.
+    #[inline]
+    fn unit(&self, g: &ScanGeometry, index: usize) -> Point2 {
+        match self.unit.get(index) {
+            Some(&u) if index < self.len => u,
+            _ => Point2::from_polar(1.0, g.beam_angle_rad(index)),
+        }
+    }
+}
+
+impl Default for BeamDirections {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl Scan {
@@ -221,6 +270,7 @@ impl Scan {
                 over_capacity: 0,
             },
             beams_received: 0,
+            directions: BeamDirections::new(),
         }
     }
 
@@ -247,14 +297,11 @@ impl Scan {
 
     /// Replaces the contents with ranges in metres (see [`Scan::from_ranges_m`]).
     pub fn load_ranges_m(&mut self, setup: &SensorSetup, ranges_m: &[f32]) {
-        self.clear();
-        for (index, &r) in ranges_m.iter().enumerate() {
-            if r == 0.0 {
-                self.note_beam(Err(Drop::NoEcho));
-            } else {
-                self.push_beam(setup, index, r);
-            }
-        }
+        self.load_beams(
+            setup,
+            ranges_m.len(),
+            ranges_m.iter().map(|&r| (r != 0.0).then_some(r)),
+        );
     }
 
     /// Replaces the contents with raw telegram values (see [`Scan::from_raw_mm`]).
@@ -265,13 +312,58 @@ impl Scan {
         scale_factor: f32,
         scale_offset_mm: f32,
     ) {
+        self.load_beams(
+            setup,
+            raw.len(),
+            raw.iter().map(|&v| {
+                (v != 0).then(|| (f32::from(v) * scale_factor + scale_offset_mm) * 0.001)
+            }),
+        );
+    }
+
+    /// Replaces the contents with `beams` ranges in metres (`None`: no echo), beam `i` at
+    /// `setup.geometry.beam_angle_rad(i)`, validated and turned into vehicle-frame points.
+    fn load_beams(
+        &mut self,
+        setup: &SensorSetup,
+        beams: usize,
+        ranges_m: impl Iterator<Item = Option<f32>>,
+    ) {
         self.clear();
-        for (index, &v) in raw.iter().enumerate() {
-            if v == 0 {
-                self.note_beam(Err(Drop::NoEcho));
+        let g = &setup.geometry;
+        let mount = setup.mounting.transform();
+        self.directions.prepare(g, beams);
+        let Self {
+            points,
+            dropped,
+            beams_received,
+            directions,
+        } = self;
+        let count = |c: &mut u16| *c = c.saturating_add(1);
+        for (index, range) in ranges_m.enumerate() {
+            count(beams_received);
+            let Some(range_m) = range else {
+                count(&mut dropped.no_echo);
+                continue;
+            };
+            let angle_rad = g.beam_angle_rad(index);
+            if !range_m.is_finite() || !angle_rad.is_finite() {
+                count(&mut dropped.non_finite);
+            } else if range_m < g.min_range_m {
+                count(&mut dropped.below_min_range);
+            } else if range_m > g.max_range_m {
+                count(&mut dropped.above_max_range);
             } else {
-                let range_m = (f32::from(v) * scale_factor + scale_offset_mm) * 0.001;
-                self.push_beam(setup, index, range_m);
+                let unit = directions.unit(g, index);
+                let point = ScanPoint {
+                    vehicle: mount.apply(Point2::new(range_m * unit.x_m, range_m * unit.y_m)),
+                    angle_rad,
+                    range_m,
+                    beam_index: u16::try_from(index).unwrap_or(u16::MAX),
+                };
+                if points.push(point).is_err() {
+                    count(&mut dropped.over_capacity);
+                }
             }
         }
     }
@@ -323,46 +415,6 @@ impl Scan {
     #[inline]
     pub fn dropped(&self) -> DroppedBeams {
         self.dropped
-    }
-
-    /// Validates one range and appends its point.
-    fn push_beam(&mut self, setup: &SensorSetup, index: usize, range_m: f32) {
-        let g = &setup.geometry;
-        let angle_rad = g.beam_angle_rad(index);
-        let verdict = if !range_m.is_finite() || !angle_rad.is_finite() {
-            Err(Drop::NonFinite)
-        } else if range_m < g.min_range_m {
-            Err(Drop::BelowMin)
-        } else if range_m > g.max_range_m {
-            Err(Drop::AboveMax)
-        } else {
-            Ok(ScanPoint {
-                vehicle: setup
-                    .mounting
-                    .transform_point(Point2::from_polar(range_m, angle_rad)),
-                angle_rad,
-                range_m,
-                beam_index: u16::try_from(index).unwrap_or(u16::MAX),
-            })
-        };
-        self.note_beam(verdict);
-    }
-
-    /// Counts one beam and keeps it if valid and there is room.
-    fn note_beam(&mut self, verdict: Result<ScanPoint, Drop>) {
-        self.beams_received = self.beams_received.saturating_add(1);
-        let d = &mut self.dropped;
-        let counter = match verdict {
-            Ok(p) => match self.points.push(p) {
-                Ok(()) => return,
-                Err(_) => &mut d.over_capacity,
-            },
-            Err(Drop::NoEcho) => &mut d.no_echo,
-            Err(Drop::NonFinite) => &mut d.non_finite,
-            Err(Drop::BelowMin) => &mut d.below_min_range,
-            Err(Drop::AboveMax) => &mut d.above_max_range,
-        };
-        *counter = counter.saturating_add(1);
     }
 }
 

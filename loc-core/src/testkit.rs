@@ -127,7 +127,7 @@ impl TunnelSpec {
         map: &mut StoredMap<S, L, C, R>,
     ) -> Result<(), MapError> {
         let steps = if self.wall_step_m > 0.0 && self.length_m.is_finite() && self.length_m > 0.0 {
-            math::floor(self.length_m / self.wall_step_m + 0.5).max(1.0) as usize
+            math::max(math::floor(self.length_m / self.wall_step_m + 0.5), 1.0) as usize
         } else {
             0
         };
@@ -202,7 +202,7 @@ impl ScanSimulator {
                     } else {
                         hit.range_m
                     };
-                    noisy.max(f32::MIN_POSITIVE)
+                    math::max(noisy, f32::MIN_POSITIVE)
                 }
                 None => 0.0,
             };

@@ -10,6 +10,7 @@
 //!
 //! Errors are measured in tunnel coordinates (arc length, lateral offset, heading relative
 //! to the tunnel axis), which for the straight tunnel are plain x, y, θ.
+#![allow(clippy::disallowed_methods)] // host-only test code: std f32::max/min are fine
 
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;

@@ -1,6 +1,7 @@
 //! The curved test tunnel against its analytic geometry: a noiseless simulated scan from
 //! the centre line lands on the two wall circles (radius 50 ∓ 2.5 m) within the chord sag
 //! of 1 m wall sampling (≤ 2.7 mm), and the map's nearest() agrees.
+#![allow(clippy::disallowed_methods)] // host-only test code: std f32::max/min are fine
 
 use loc_core::geometry::Point2;
 use loc_core::map::{FeatureKind, MapQuery, TunnelMap};

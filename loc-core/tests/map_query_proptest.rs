@@ -1,5 +1,6 @@
 //! Property tests of the stored map's queries: any input (NaN, infinities, huge values)
 //! gives an answer or `None`, never a panic, and answers agree with a brute-force search.
+#![allow(clippy::disallowed_methods)] // host-only test code: std f32::max/min are fine
 
 use loc_core::geometry::Point2;
 use loc_core::landmark::LandmarkModel;

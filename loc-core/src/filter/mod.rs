@@ -24,6 +24,7 @@ use core::fmt;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::geometry::Pose2;
+use crate::math;
 
 /// Largest variance the filter keeps, m² (and rad² for heading): variances are clamped here
 /// so a long run without scans stays finite.
@@ -71,7 +72,7 @@ impl Ekf {
         }
         let sym_err = (covariance - covariance.transpose()).abs().max();
         if !covariance.iter().all(|v| v.is_finite())
-            || sym_err > 1e-6 * covariance.abs().max().max(1.0)
+            || sym_err > 1e-6 * math::max(covariance.abs().max(), 1.0)
             || covariance.cholesky().is_none()
         {
             return Err(FilterInitError::InvalidCovariance);

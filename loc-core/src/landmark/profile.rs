@@ -32,6 +32,7 @@
 //! keeps the map small.
 
 use crate::geometry::{Point2, Segment};
+use crate::math;
 
 use super::{Genome, LandmarkModel, PIECEWISE_HEIGHTS};
 
@@ -131,7 +132,7 @@ impl Profile {
                     }
                 }
             }
-            self.push(u, v.max(0.0));
+            self.push(u, math::max(v, 0.0));
             prev = Some((u, v));
         }
         if let Some((_, v)) = prev {
@@ -163,7 +164,7 @@ impl Profile {
 
     /// Largest height `v` of the profile, metres.
     pub fn max_height_m(&self) -> f32 {
-        self.vertices.iter().fold(0.0, |m, p| m.max(p.y_m))
+        self.vertices.iter().fold(0.0, |m, p| math::max(m, p.y_m))
     }
 
     /// Height `v(u)` of the outline at `u_m` (the highest where a vertical step sits at
@@ -171,16 +172,16 @@ impl Profile {
     pub fn height_at(&self, u_m: f32) -> f32 {
         let mut best: f32 = 0.0;
         for s in self.segments() {
-            let (lo, hi) = (s.a.x_m.min(s.b.x_m), s.a.x_m.max(s.b.x_m));
+            let (lo, hi) = (math::min(s.a.x_m, s.b.x_m), math::max(s.a.x_m, s.b.x_m));
             if u_m < lo || u_m > hi {
                 continue;
             }
             let v = if hi - lo <= f32::EPSILON {
-                s.a.y_m.max(s.b.y_m)
+                math::max(s.a.y_m, s.b.y_m)
             } else {
                 s.a.y_m + (s.b.y_m - s.a.y_m) * (u_m - s.a.x_m) / (s.b.x_m - s.a.x_m)
             };
-            best = best.max(v);
+            best = math::max(best, v);
         }
         best
     }

@@ -129,8 +129,8 @@ impl CellSpec {
     /// ix, ascending), each cell once, until `f` returns false. Returns false when stopped.
     pub fn for_each_cell_of_segment(&self, seg: &Segment, f: &mut dyn FnMut(Cell) -> bool) -> bool {
         let (a, b) = (seg.a, seg.b);
-        let lo_y = a.y_m.min(b.y_m) - EDGE_EPS_M;
-        let hi_y = a.y_m.max(b.y_m) + EDGE_EPS_M;
+        let lo_y = math::min(a.y_m, b.y_m) - EDGE_EPS_M;
+        let hi_y = math::max(a.y_m, b.y_m) + EDGE_EPS_M;
         let (iy0, iy1) = (self.coord_sat(lo_y), self.coord_sat(hi_y));
         let dy = b.y_m - a.y_m;
         let dx = b.x_m - a.x_m;
@@ -143,15 +143,18 @@ impl CellSpec {
             } else {
                 let ta = (y0 - a.y_m) / dy;
                 let tb = (y1 - a.y_m) / dy;
-                (ta.min(tb).max(0.0), ta.max(tb).min(1.0))
+                (
+                    math::max(math::min(ta, tb), 0.0),
+                    math::min(math::max(ta, tb), 1.0),
+                )
             };
             if t0 > t1 {
                 continue;
             }
             let xa = a.x_m + dx * t0;
             let xb = a.x_m + dx * t1;
-            let ix0 = self.coord_sat(xa.min(xb) - EDGE_EPS_M);
-            let ix1 = self.coord_sat(xa.max(xb) + EDGE_EPS_M);
+            let ix0 = self.coord_sat(math::min(xa, xb) - EDGE_EPS_M);
+            let ix1 = self.coord_sat(math::max(xa, xb) + EDGE_EPS_M);
             for ix in ix0..=ix1 {
                 if !f(Cell { ix, iy }) {
                     return false;

@@ -45,7 +45,8 @@ pub(crate) fn ray_segment(o: Point2, d: Point2, s: &Segment) -> Option<f32> {
 
 impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
     /// Calls `f` for each cell of ring `k` (Chebyshev distance `k` from `c`) inside `b`.
-    fn for_each_ring_cell(c: Cell, k: i32, b: &CellRect, f: &mut dyn FnMut(Cell)) {
+    #[inline]
+    fn for_each_ring_cell(c: Cell, k: i32, b: &CellRect, mut f: impl FnMut(Cell)) {
         let ix_lo = (c.ix - k).max(b.min.ix);
         let ix_hi = (c.ix + k).min(b.max.ix);
         let rows: [i32; 2] = [c.iy - k, c.iy + k];
@@ -101,21 +102,41 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
             k_box
         };
         let k_last = k_box.min(k_dist);
+        // How far p lies inside its own cell (0 when the cell is outside the index box and
+        // the search starts further out): every cell of ring k ≥ 1 is at least
+        // (k − 1)·cs + margin away. With this bound a point a few centimetres from a wall
+        // found in its own cell stops after ring 0 instead of visiting the eight
+        // neighbours (most queries of a matcher are such points).
+        let margin_m = if k_first == 0 {
+            let (x0, y0) = (c.ix as f32 * cs, c.iy as f32 * cs);
+            math::max(
+                0.0,
+                math::min(
+                    math::min(p.x_m - x0, x0 + cs - p.x_m),
+                    math::min(p.y_m - y0, y0 + cs - p.y_m),
+                ),
+            )
+        } else {
+            0.0
+        };
         // Squared distances in the search; one full projection for the winner.
         let mut best: Option<usize> = None;
         let mut best_d2 = max_distance_m * max_distance_m;
         for k in k_first..=k_last {
-            // Every cell of ring k is at least (k − 1) cells from p.
-            let ring_gap = (k - 1).max(0) as f32 * cs;
+            let ring_gap = if k == 0 {
+                0.0
+            } else {
+                (k - 1) as f32 * cs + margin_m
+            };
             if ring_gap * ring_gap > best_d2 {
                 break;
             }
-            Self::for_each_ring_cell(c, k, &b, &mut |cell| {
+            Self::for_each_ring_cell(c, k, &b, |cell| {
                 // Skip cells whose box is farther than the best so far.
                 let x0 = cell.ix as f32 * cs;
                 let y0 = cell.iy as f32 * cs;
-                let dx = (x0 - p.x_m).max(p.x_m - (x0 + cs)).max(0.0);
-                let dy = (y0 - p.y_m).max(p.y_m - (y0 + cs)).max(0.0);
+                let dx = math::max(math::max(x0 - p.x_m, p.x_m - (x0 + cs)), 0.0);
+                let dy = math::max(math::max(y0 - p.y_m, p.y_m - (y0 + cs)), 0.0);
                 if dx * dx + dy * dy > best_d2 {
                     return;
                 }
@@ -179,8 +200,8 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
             } else {
                 let ta = (l - o) / dv;
                 let tb = (h - o) / dv;
-                t0 = t0.max(ta.min(tb));
-                t1 = t1.min(ta.max(tb));
+                t0 = math::max(t0, math::min(ta, tb));
+                t1 = math::min(t1, math::max(ta, tb));
             }
         }
         if t0.is_nan() || t1.is_nan() || t0 > t1 {
@@ -216,7 +237,7 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
                     }
                 }
             }
-            let t_exit = t_max_x.min(t_max_y);
+            let t_exit = math::min(t_max_x, t_max_y);
             if (best.is_some() && best_t <= t_exit) || t_exit > t1 {
                 break;
             }

@@ -25,6 +25,8 @@ pub struct Association {
     pub associated: bool,
     /// The map segment associated with (meaningless when not associated).
     pub segment: Segment,
+    /// Unit normal of that segment's line (re-projections onto it need no square root).
+    pub line_normal: Point2,
     /// True when the segment is part of a landmark (re-searched at every iteration).
     pub landmark: bool,
     /// Index of the scan point in the slice associated.
@@ -70,11 +72,12 @@ pub fn associate<M: MapQuery>(
 
 /// Like [`associate`] but keeps each wall point's segment from the last association and only
 /// re-projects onto it (no map search): valid while the pose has moved little since, and
-/// an order of magnitude cheaper. With `search_landmarks`, points on landmarks are searched
-/// again (their nearest flank changes with small moves, and they are few); unassociated
-/// points stay so. Points
-/// farther than `gate_m` from their segment become unassociated. Entries must come from an
-/// earlier [`associate`] on the same points.
+/// an order of magnitude cheaper. A point whose projection leaves its segment's interior is
+/// searched again alone (its nearest piece of map has changed). With `search_landmarks`,
+/// points on landmarks are searched again (their nearest flank changes with small moves,
+/// and they are few); unassociated points stay so. Points farther than `gate_m` from their
+/// segment become unassociated. Entries must come from an earlier [`associate`] on the same
+/// points.
 pub fn reproject<M: MapQuery>(
     map: &M,
     points: &[Point2],
@@ -98,13 +101,24 @@ pub fn reproject<M: MapQuery>(
             continue;
         }
         let point = a.point;
-        let hit = if a.landmark && search_landmarks {
+        let search = |world| {
             map.nearest(world, gate_m)
                 .filter(|h| h.projection.distance_m.is_finite())
                 .map(|h| (h.segment, h.projection, h.kind.is_landmark()))
+        };
+        let hit = if a.landmark && search_landmarks {
+            search(world)
         } else {
-            let pr = a.segment.project(world);
-            (pr.distance_m <= gate_m).then_some((a.segment, pr, false))
+            let pr = a.segment.project_with_normal(world, a.line_normal);
+            if pr.t > 0.0 && pr.t < 1.0 {
+                // Still the same kind of geometry: a landmark point stays one, to be
+                // searched again at the next landmark search.
+                (pr.distance_m <= gate_m).then_some((a.segment, pr, a.landmark))
+            } else {
+                // Slid off its segment's end: the neighbouring piece of wall (or whatever
+                // lies there) is found for this point alone.
+                search(world)
+            }
         };
         *a = match hit {
             Some((segment, pr, landmark)) => {
@@ -132,6 +146,7 @@ fn paired(world: Point2, segment: Segment, pr: SegmentProjection, landmark: bool
         normal,
         associated: true,
         segment,
+        line_normal: pr.normal,
         landmark,
         point: 0,
     }
@@ -145,6 +160,7 @@ fn unpaired(world: Point2, gate_m: f32) -> Association {
         normal: Point2::new(1.0, 0.0),
         associated: false,
         segment: Segment::new(world, world),
+        line_normal: Point2::new(1.0, 0.0),
         landmark: false,
         point: 0,
     }
@@ -152,9 +168,12 @@ fn unpaired(world: Point2, gate_m: f32) -> Association {
 
 /// Decides between a full association and a cheap re-projection: full on the first call
 /// and whenever the pose has moved more than `MAX_SHIFT_M` / `MAX_TURN_RAD` since the last
-/// full association (a point 20 m out moves 5 cm per 0.0025 rad); landmark points are
-/// searched again when it moved more than a quarter of that (1.25 cm / 0.000625 rad) since
-/// their last search.
+/// full association; landmark points are searched again when it moved more than
+/// `LANDMARK_SHIFT_M` / `LANDMARK_TURN_RAD` since their last search (their nearest flank
+/// changes with small moves). Between full associations a wall point that slides off the
+/// end of its segment is searched again alone ([`reproject`]), so the full association is
+/// needed only for what re-projection cannot see: points that entered or left the gate, or
+/// whose nearest feature changed kind.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct AssociationSchedule {
     last_full: Option<Pose2>,
@@ -163,9 +182,14 @@ pub struct AssociationSchedule {
 
 impl AssociationSchedule {
     /// Translation since the last full association that forces a new one, metres.
-    pub const MAX_SHIFT_M: f32 = 0.05;
-    /// Rotation since the last full association that forces a new one, radians.
-    pub const MAX_TURN_RAD: f32 = 0.0025;
+    pub const MAX_SHIFT_M: f32 = 0.25;
+    /// Rotation since the last full association that forces a new one, radians (a point
+    /// 20 m out moves 0.25 m).
+    pub const MAX_TURN_RAD: f32 = 0.0125;
+    /// Translation since the last landmark search that forces a new one, metres.
+    pub const LANDMARK_SHIFT_M: f32 = 0.0125;
+    /// Rotation since the last landmark search that forces a new one, radians.
+    pub const LANDMARK_TURN_RAD: f32 = 0.000625;
 
     /// A schedule whose first call associates fully.
     pub const fn new() -> Self {
@@ -184,19 +208,23 @@ impl AssociationSchedule {
         gate_m: f32,
         out: &mut [Association],
     ) -> usize {
-        let moved = |last: Option<Pose2>, scale: f32| {
+        let moved = |last: Option<Pose2>, shift_m: f32, turn_rad: f32| {
             last.is_none_or(|l| {
-                math::hypot(pose.x_m - l.x_m, pose.y_m - l.y_m) > Self::MAX_SHIFT_M * scale
-                    || math::abs(math::wrap_angle(pose.theta_rad - l.theta_rad))
-                        > Self::MAX_TURN_RAD * scale
+                let (dx, dy) = (pose.x_m - l.x_m, pose.y_m - l.y_m);
+                dx * dx + dy * dy > shift_m * shift_m
+                    || math::abs(math::wrap_angle(pose.theta_rad - l.theta_rad)) > turn_rad
             })
         };
-        if moved(self.last_full, 1.0) {
+        if moved(self.last_full, Self::MAX_SHIFT_M, Self::MAX_TURN_RAD) {
             self.last_full = Some(pose);
             self.last_landmark = Some(pose);
             associate(map, points, pose, gate_m, out)
         } else {
-            let search = moved(self.last_landmark, 0.25);
+            let search = moved(
+                self.last_landmark,
+                Self::LANDMARK_SHIFT_M,
+                Self::LANDMARK_TURN_RAD,
+            );
             if search {
                 self.last_landmark = Some(pose);
             }

@@ -27,7 +27,7 @@ pub(super) fn run<M: MapQuery>(
     let k = ((k_fraction * m as f32 + 0.5) as usize).clamp(1, m.max(1));
     let required = usize::from(config.min_points.max(3));
     // IRLS floor: residuals below the noise all weigh the same.
-    let delta_m = config.range_noise_sigma_m.max(1.0e-3);
+    let delta_m = math::max(config.range_noise_sigma_m, 1.0e-3);
 
     let mut pose = initial;
     let mut best: Option<(Pose2, f32, NormalEquations)> = None;
@@ -64,7 +64,7 @@ pub(super) fn run<M: MapQuery>(
                 for a in selected.filter(|a| a.associated) {
                     let r = a.residual_m();
                     let w = match config.k_best {
-                        KBest::TrimmedMean => 1.0 / math::abs(r).max(delta_m),
+                        KBest::TrimmedMean => 1.0 / math::max(math::abs(r), delta_m),
                         KBest::KthRanked => 1.0,
                     };
                     eq.add(a.world, pose.translation(), a.normal, r, w);
@@ -73,7 +73,7 @@ pub(super) fn run<M: MapQuery>(
                 damping *= 0.25;
             }
         } else {
-            damping = (damping * 4.0).max(1.0);
+            damping = math::max(damping * 4.0, 1.0);
         }
         let Some((best_pose, _, eq)) = best.as_ref() else {
             continue;
@@ -106,7 +106,7 @@ pub(super) fn run<M: MapQuery>(
         });
     };
     // A last step above 100× the tolerance means the iterations ran out mid-descent.
-    if last_step_m > 100.0 * config.convergence_translation_m.max(1.0e-6) {
+    if last_step_m > 100.0 * math::max(config.convergence_translation_m, 1.0e-6) {
         return Err(MatchError::DidNotConverge {
             iterations,
             last_step_m,

@@ -7,6 +7,7 @@ use super::information::{truncated_step, NormalEquations};
 use super::{apply_step, step_size, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
+use crate::math;
 
 pub(super) fn run<M: MapQuery>(
     map: &M,
@@ -18,8 +19,8 @@ pub(super) fn run<M: MapQuery>(
     let m = points.len().min(assoc.len());
     let assoc = assoc.get_mut(..m).unwrap_or_default();
     let required = usize::from(config.min_points.max(3));
-    let min_gate = config.icp_min_gate_m.max(1.0e-3);
-    let mut gate = config.association_gate_m.max(min_gate);
+    let min_gate = math::max(config.icp_min_gate_m, 1.0e-3);
+    let mut gate = math::max(config.association_gate_m, min_gate);
 
     let mut pose = initial;
     let mut last = None;
@@ -65,7 +66,7 @@ pub(super) fn run<M: MapQuery>(
             required: u16::try_from(required).unwrap_or(u16::MAX),
         });
     };
-    if last_step_m > 100.0 * config.convergence_translation_m.max(1.0e-6) {
+    if last_step_m > 100.0 * math::max(config.convergence_translation_m, 1.0e-6) {
         return Err(MatchError::DidNotConverge {
             iterations,
             last_step_m,

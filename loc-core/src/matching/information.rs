@@ -158,7 +158,7 @@ pub fn truncated_step(
     damping: f32,
 ) -> Vector3<f32> {
     let s = scaling(rotation_scale_m);
-    let shrink = 1.0 / (1.0 + damping.max(0.0));
+    let shrink = 1.0 / (1.0 + math::max(damping, 0.0));
     let hs = s * eq.weighted * s;
     let gs = s * eq.gradient;
     if !eq.information_points.iter().all(|v| v.is_finite()) {
@@ -317,10 +317,10 @@ pub fn degeneracy(
         None => 0.0,
     };
     Degeneracy {
-        min_eigenvalue_per_m2: lmin.max(0.0),
+        min_eigenvalue_per_m2: math::max(lmin, 0.0),
         direction_world: d,
         state_direction: [d.x_m, d.y_m, dtheta],
-        max_eigenvalue_per_m2: lmax.max(0.0),
+        max_eigenvalue_per_m2: math::max(lmax, 0.0),
         degenerate,
     }
 }

@@ -23,10 +23,11 @@
 //!   convergence (where this matcher operates after odometry prediction) the two coincide.
 //!
 //! Both re-associate every iteration: a full map search ([`MapQuery::nearest`]) on the first
-//! iteration and whenever the pose has moved more than 5 cm / 0.0025 rad since the last
-//! search; otherwise wall points are re-projected onto the wall segments found then and only
-//! landmark points are searched again ([`AssociationSchedule`]). Map searches dominate the
-//! cost; near convergence the wall segments no longer change.
+//! iteration and whenever the pose has moved more than 25 cm / 0.0125 rad since the last
+//! one; otherwise wall points are re-projected onto the segments found then (searched again
+//! one by one when they slide off a segment's end) and landmark points are searched again
+//! after 1.25 cm / 0.000625 rad of motion ([`AssociationSchedule`]). Map searches dominate
+//! the cost; near convergence the wall segments no longer change.
 //!
 //! ## What to feed it
 //! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
@@ -59,7 +60,7 @@ mod prealign;
 pub use association::{
     associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
 };
-pub use guided::{match_scan_with_prealign, GuidedMatch};
+pub use guided::{match_scan_with_prealign, GuidedMatch, COARSE_MATCH_POINTS};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, ObservableSubspace,
@@ -238,7 +239,7 @@ impl fmt::Display for MatchError {
     }
 }
 
-/// Scratch memory of one match (28 KiB: 512 associations of 48 bytes and 512 selection keys): keep one, in the [`crate::localizer`] or a
+/// Scratch memory of one match (32 KiB: 512 associations of 56 bytes and 512 selection keys): keep one, in the [`crate::localizer`] or a
 /// static, rather than on a small stack.
 #[derive(Debug, Clone)]
 pub struct MatchWorkspace {
@@ -263,6 +264,7 @@ impl MatchWorkspace {
                 normal: Point2::ORIGIN,
                 associated: false,
                 segment: crate::geometry::Segment::new(Point2::ORIGIN, Point2::ORIGIN),
+                line_normal: Point2::ORIGIN,
                 landmark: false,
                 point: 0,
             }; MAX_MATCH_POINTS],

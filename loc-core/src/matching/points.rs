@@ -45,8 +45,8 @@ pub fn select_match_points<P: VehiclePoint>(
             PointLabel::LeftWall | PointLabel::RightWall => {
                 n_wall += 1;
                 if let Some(s) = span.get_mut(wall_slot(l)) {
-                    s.0 = s.0.min(p.x_m);
-                    s.1 = s.1.max(p.x_m);
+                    s.0 = crate::math::min(s.0, p.x_m);
+                    s.1 = crate::math::max(s.1, p.x_m);
                 }
             }
             PointLabel::Landmark => n_landmark += 1,

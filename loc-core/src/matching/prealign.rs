@@ -123,7 +123,7 @@ impl Cluster {
 #[inline]
 fn height_weight(height_m: f32) -> f32 {
     let h = if height_m.is_finite() {
-        height_m.max(0.0)
+        math::max(height_m, 0.0)
     } else {
         0.0
     };

@@ -51,8 +51,8 @@ pub(super) fn fit_wall<P: VehiclePoint>(
     let (mut min_x, mut max_x, mut usable_count) = (f32::INFINITY, f32::NEG_INFINITY, 0usize);
     for p in points.iter().map(VehiclePoint::vehicle_point) {
         if usable(p, max_r) {
-            min_x = min_x.min(p.x_m);
-            max_x = max_x.max(p.x_m);
+            min_x = math::min(min_x, p.x_m);
+            max_x = math::max(max_x, p.x_m);
             usable_count += 1;
         }
     }
@@ -87,7 +87,7 @@ pub(super) fn fit_wall<P: VehiclePoint>(
             .iter()
             .map(|p| {
                 let r = p.y_m - hypothesis.eval(p.x_m);
-                (r * r).min(tol_sq)
+                math::min(r * r, tol_sq)
             })
             .sum();
         if best.is_none_or(|(s, _)| score < s) {
