@@ -82,15 +82,21 @@ pub(super) fn fit_wall<P: VehiclePoint>(
         let Some(hypothesis) = stratified_hypothesis(&sample, scaling, rng) else {
             continue;
         };
-        // MSAC: truncated quadratic loss, better ranked than a bare inlier count.
-        let score: f32 = sample
-            .iter()
-            .map(|p| {
+        // MSAC: truncated quadratic loss, better ranked than a bare inlier count. The sum
+        // only grows, so a hypothesis is dropped as soon as it reaches the best score so
+        // far (checked every 16 points): the same winner, at a fraction of the cost.
+        let bound = best.map_or(f32::INFINITY, |(s, _)| s);
+        let mut score = 0.0f32;
+        for chunk in sample.chunks(16) {
+            for p in chunk {
                 let r = p.y_m - hypothesis.eval(p.x_m);
-                math::min(r * r, tol_sq)
-            })
-            .sum();
-        if best.is_none_or(|(s, _)| score < s) {
+                score += math::min(r * r, tol_sq);
+            }
+            if score >= bound {
+                break;
+            }
+        }
+        if score < bound {
             best = Some((score, hypothesis));
         }
     }
