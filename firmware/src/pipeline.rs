@@ -8,7 +8,7 @@
 
 use loc_core::filter::{Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
 use loc_core::geometry::Pose2;
-use loc_core::localizer::{LocalizerConfig, RejectReason, Status};
+use loc_core::localizer::{position_sd_m, LocalizerConfig, RejectReason, Status};
 use loc_core::map::MapQuery;
 use loc_core::matching::{
     match_scan_with_prealign, select_match_points, MatchPoints, MatchWorkspace,
@@ -136,7 +136,13 @@ impl StagedPipeline {
         let labels = self.labels.get_mut(..n).unwrap_or_default();
         let strip = strip_walls(points, &cfg.strip, labels);
         let t3 = board.counter_now();
-        select_match_points(points, labels, cfg.max_wall_points, &mut self.match_points);
+        select_match_points(
+            points,
+            labels,
+            cfg.max_wall_points,
+            cfg.wall_range_m(&self.ekf.covariance()),
+            &mut self.match_points,
+        );
         let t4 = board.counter_now();
         let matched = match_scan_with_prealign(
             map,
@@ -178,10 +184,4 @@ impl StagedPipeline {
             odometry,
         }
     }
-}
-
-/// A bound on the position's standard deviation, metres: `√(σx² + σy²)` (as the Localizer
-/// computes it for the pre-alignment decision; private there).
-fn position_sd_m(p: &Matrix3<f32>) -> f32 {
-    loc_core::math::sqrt((p.m11 + p.m22).max(0.0))
 }

@@ -88,9 +88,17 @@ fn stages(c: &mut Criterion) {
 
     let mut selected = MatchPoints::new();
     c.bench_function("select_match_points", |b| {
-        b.iter(|| select_match_points(black_box(points), &labels, 100, &mut selected))
+        b.iter(|| {
+            select_match_points(
+                black_box(points),
+                &labels,
+                100,
+                f32::INFINITY,
+                &mut selected,
+            )
+        })
     });
-    let counts = select_match_points(points, &labels, 100, &mut selected);
+    let counts = select_match_points(points, &labels, 100, f32::INFINITY, &mut selected);
     eprintln!("strip {:?}; selected {:?}", strip.counts, counts);
 
     let mut ws = Box::new(MatchWorkspace::new());

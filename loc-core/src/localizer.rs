@@ -42,6 +42,15 @@ pub struct LocalizerConfig {
     pub strip: StripConfig,
     /// Wall points kept for matching (landmark points are all kept).
     pub max_wall_points: u16,
+    /// Wall points farther than `wall_range_scale_m2 / σ` are not matched, where σ is the
+    /// predicted position's largest standard deviation (metres; in a smooth tunnel the
+    /// along-tunnel one): with the position along the tunnel uncertain by σ, the stored
+    /// walls far ahead may bend where the scanned ones do not (or run straight where they
+    /// bend), and those points bias the lateral and heading fit. m².
+    pub wall_range_scale_m2: f32,
+    /// The wall range above never drops below this, metres (near walls fix the lateral
+    /// position and the heading).
+    pub min_wall_range_m: f32,
     /// Along-tunnel pre-alignment on landmarks.
     pub prealign: PrealignConfig,
     /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
@@ -60,6 +69,8 @@ impl Default for LocalizerConfig {
             sensor: SensorSetup::default(),
             strip: StripConfig::default(),
             max_wall_points: 100,
+            wall_range_scale_m2: 10.0,
+            min_wall_range_m: 15.0,
             prealign: PrealignConfig::default(),
             matching,
             odometry: OdometryNoise::default(),
@@ -284,7 +295,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let labels = self.labels.get_mut(..n).unwrap_or_default();
         let strip = strip_walls(points, &cfg.strip, labels);
         self.last_strip = Some(strip);
-        select_match_points(points, labels, cfg.max_wall_points, &mut self.match_points);
+        select_match_points(
+            points,
+            labels,
+            cfg.max_wall_points,
+            cfg.wall_range_m(&ekf.covariance()),
+            &mut self.match_points,
+        );
         let result = match match_scan_with_prealign(
             self.map,
             points,
@@ -382,6 +399,60 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
 }
 
 /// A bound on the position's standard deviation, metres: `√(σx² + σy²)`.
-fn position_sd_m(p: &Matrix3<f32>) -> f32 {
+pub fn position_sd_m(p: &Matrix3<f32>) -> f32 {
     crate::math::sqrt(crate::math::max(p.m11 + p.m22, 0.0))
+}
+
+/// The largest standard deviation of the position, metres: the square root of the larger
+/// eigenvalue of the covariance's `(x, y)` block (`p` as the filter keeps it, world frame).
+pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
+    let (a, b, c) = (p.m11, p.m12, p.m22);
+    let half_diff = 0.5 * (a - c);
+    let lambda = 0.5 * (a + c) + crate::math::sqrt(half_diff * half_diff + b * b);
+    crate::math::sqrt(crate::math::max(lambda, 0.0))
+}
+
+impl LocalizerConfig {
+    /// How far out wall points are matched for a prediction with position covariance
+    /// `covariance` (see [`LocalizerConfig::wall_range_scale_m2`]), metres;
+    /// `f32::INFINITY` when the prediction is certain (or the covariance is not finite).
+    pub fn wall_range_m(&self, covariance: &Matrix3<f32>) -> f32 {
+        let sd_m = largest_position_sd_m(covariance);
+        if sd_m > 0.0 && sd_m.is_finite() {
+            crate::math::max(self.wall_range_scale_m2 / sd_m, self.min_wall_range_m)
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn wall_range_shrinks_with_the_position_uncertainty() {
+        let cfg = LocalizerConfig::default();
+        let cov = |sx: f32, sy: f32| Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, 1e-4));
+        // Tracking (1 cm): no practical limit; 0.5 m along: 20 m; metres: the floor.
+        assert!(cfg.wall_range_m(&cov(0.01, 0.005)) >= 1000.0);
+        assert!((cfg.wall_range_m(&cov(0.5, 0.01)) - 20.0).abs() < 1e-3);
+        assert_eq!(cfg.wall_range_m(&cov(5.0, 0.01)), cfg.min_wall_range_m);
+        // The largest deviation counts, whatever the axes (a tunnel along the diagonal).
+        let mut rotated = cov(0.5, 0.01);
+        let (c, s) = (
+            core::f32::consts::FRAC_1_SQRT_2,
+            core::f32::consts::FRAC_1_SQRT_2,
+        );
+        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        rotated = r * rotated * r.transpose();
+        assert!((largest_position_sd_m(&rotated) - 0.5).abs() < 1e-4);
+        // No information: no limit, never NaN.
+        assert_eq!(cfg.wall_range_m(&Matrix3::zeros()), f32::INFINITY);
+        assert_eq!(
+            cfg.wall_range_m(&Matrix3::from_element(f32::NAN)),
+            f32::INFINITY
+        );
+    }
 }

@@ -91,7 +91,7 @@ fn stages(t: &Tunnel, scan: &Scan, guess: Pose2, matcher: MatcherKind) -> MatchR
     let strip = strip_walls(points, &StripConfig::default(), &mut labels);
     assert!(strip.left.is_some() && strip.right.is_some(), "{strip:?}");
     let mut selected = MatchPoints::new();
-    select_match_points(points, &labels, 100, &mut selected);
+    select_match_points(points, &labels, 100, f32::INFINITY, &mut selected);
     let config = MatchConfig {
         matcher,
         ..MatchConfig::default()

@@ -131,7 +131,7 @@ fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) ->
     let mut labels = [PointLabel::Outlier; 1141];
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
     let mut sel = MatchPoints::new();
-    select_match_points(&pts, &labels, 100, &mut sel);
+    select_match_points(&pts, &labels, 100, f32::INFINITY, &mut sel);
     let mut ws = MatchWorkspace::new();
     match_scan_with_prealign(
         map,
