@@ -88,11 +88,11 @@ pub fn load_map<B: Board>(board: &B, map: &mut TunnelMap) -> Result<u64, MapErro
 
 /// Where a replay works: large buffers the caller keeps in statics.
 pub struct ReplaySlots<'a, 'm> {
-    /// The scan buffer (≈ 23 KiB).
+    /// The scan buffer (≈ 32 KiB, with its beam-direction table).
     pub scan: &'a mut Scan,
-    /// Scratch for the staged chain (≈ 26 KiB).
+    /// Scratch for the staged chain (≈ 38 KiB).
     pub staged: &'a mut Option<StagedPipeline>,
-    /// Scratch for the `Localizer` (≈ 22 KiB).
+    /// Scratch for the `Localizer` (≈ 38 KiB).
     pub localizer: &'a mut Option<Localizer<'m, TunnelMap>>,
 }
 

@@ -8,12 +8,10 @@
 //!
 //! Short run: `cargo bench -p loc-core --bench pipeline -- --warm-up-time 1 --measurement-time 3`.
 //!
-//! Measured 2026-11-22 on the shared 2-core build machine under load ≈ 5 (so wall-clock
-//! figures are inflated): strip 54 µs, select 10 µs, match 113 µs (Hausdorff, 6 iterations)
-//! / 61 µs (ICP, 3 iterations), filter 0.9 µs; end to end 174 µs (Hausdorff) / 128 µs (ICP).
-//! Load-independent x86-64 instruction counts (callgrind, per scan): strip 365 k, select
-//! 64 k, match 544 k / 361 k (≈ 60 % of it in `StoredMap::nearest`, ≈ 1.1 k per query),
-//! filter 3.6 k; end to end 0.98 M (Hausdorff) / 0.79 M (ICP).
+//! Measured 2026-12-01 on the 2-core build machine at load ≈ 1: strip 27.0 µs, select
+//! 7.1 µs, match 50.8 µs (Hausdorff, 5 iterations) / 35.7 µs (ICP, 4 iterations), filter
+//! 0.58 µs; end to end 75.8 µs (Hausdorff) / 65.9 µs (ICP). (2026-11-22, before the M4F
+//! work of the next commits and under load ≈ 5: end to end 174 / 128 µs.)
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use loc_core::filter::{Ekf, OdometryIncrement, OdometryNoise, UpdateConfig};

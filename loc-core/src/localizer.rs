@@ -10,7 +10,7 @@
 //!    ([`crate::matching::match_scan`]) against the map;
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions.
 //!
-//! Memory: a `Localizer` holds its scratch buffers (≈ 34 KiB: point labels, selected
+//! Memory: a `Localizer` holds its scratch buffers (≈ 38 KiB: point labels, selected
 //! points, the match workspace); keep it in a `static` or on a large stack. No allocation,
 //! no panics, bounded time per call.
 
@@ -201,6 +201,25 @@ pub enum Status {
         /// Why.
         reason: RejectReason,
     },
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Status::NotInitialised => write!(f, "not initialised: give an initial pose"),
+            Status::DeadReckoning => write!(f, "dead reckoning (no scan yet)"),
+            Status::Tracking => write!(f, "tracking"),
+            Status::Degenerate {
+                direction_world,
+                eigenvalue_per_m2,
+            } => write!(
+                f,
+                "degenerate along ({:.3}, {:.3}) (information {eigenvalue_per_m2:.1} m^-2): odometry there",
+                direction_world.x_m, direction_world.y_m
+            ),
+            Status::MatchRejected { reason } => write!(f, "scan not used: {reason}"),
+        }
+    }
 }
 
 /// The localisation pipeline over a map `M`.
@@ -430,6 +449,18 @@ impl LocalizerConfig {
 mod tests {
     use super::*;
     use nalgebra::Vector3;
+
+    #[test]
+    fn memory_is_what_the_docs_say() {
+        use crate::map::TunnelMap;
+        let localizer = core::mem::size_of::<Localizer<'static, TunnelMap>>();
+        let scan = core::mem::size_of::<Scan>();
+        let workspace = core::mem::size_of::<MatchWorkspace>();
+        // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB.
+        assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
+        assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
+        assert_eq!(workspace, 512 * 56 + 512 * 8);
+    }
 
     #[test]
     fn wall_range_shrinks_with_the_position_uncertainty() {

@@ -121,6 +121,13 @@ fn assert_within(t: &Tunnel, got: Pose2, truth: Pose2, what: &str) {
         (l - l0).abs(),
         math::wrap_angle(h - h0).abs(),
     );
+    // `cargo test -p loc-core --release --test accuracy_tunnels -- --nocapture` shows them.
+    eprintln!(
+        "{what}: along {:.2} mm, across {:.2} mm, heading {:.4} deg",
+        1e3 * es,
+        1e3 * el,
+        eh.to_degrees()
+    );
     assert!(
         math::hypot(es, el) < TOL_M && eh < TOL_RAD,
         "{what}: along {es} m, across {el} m, heading {} deg",
