@@ -60,14 +60,22 @@ impl Segment {
                 normal,
             };
         }
-        let t = (p.sub(self.a).dot(d) / len_sq).clamp(0.0, 1.0);
+        let w = p.sub(self.a);
+        let t_line = w.dot(d) / len_sq;
+        let t = t_line.clamp(0.0, 1.0);
         let closest = self.a.add(d.scale(t));
-        let inv_len = 1.0 / crate::math::sqrt(len_sq);
+        let normal = d.perp().scale(1.0 / crate::math::sqrt(len_sq));
+        // Inside the segment the distance is the one to its line: no second square root.
+        let distance_m = if t_line > 0.0 && t_line < 1.0 {
+            crate::math::abs(normal.dot(w))
+        } else {
+            p.dist(closest)
+        };
         SegmentProjection {
             closest,
-            distance_m: p.dist(closest),
+            distance_m,
             t,
-            normal: d.perp().scale(inv_len),
+            normal,
         }
     }
 }

@@ -27,7 +27,8 @@ pub struct Association {
     pub segment: Segment,
     /// Unit normal of that segment's line (re-projections onto it need no square root).
     pub line_normal: Point2,
-    /// True when the segment is part of a landmark (re-searched at every iteration).
+    /// True when the segment is part of a landmark (such points are searched again after
+    /// small moves, see [`AssociationSchedule`]).
     pub landmark: bool,
     /// Index of the scan point in the slice associated.
     pub point: u16,

@@ -84,19 +84,28 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
             rematched: false,
         });
     };
+    // With few points the coarse set is the whole set and its match is the final one.
+    let whole = coarse.len() == selected.len();
+    let refine = |coarse_result: MatchResult, workspace: &mut MatchWorkspace| {
+        if whole {
+            Ok(coarse_result)
+        } else {
+            match_scan(map, selected, coarse_result.pose, config, workspace)
+        }
+    };
     let again = prealign_along_tunnel(map, points, labels, strip, first.pose, prealign)
         .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
     if let Some(shift) = again {
         if let Ok(second) = match_scan(map, &coarse, shift.pose, config, workspace) {
             return Ok(GuidedMatch {
-                result: match_scan(map, selected, second.pose, config, workspace)?,
+                result: refine(second, workspace)?,
                 prealign: Some(shift),
                 rematched: true,
             });
         }
     }
     Ok(GuidedMatch {
-        result: match_scan(map, selected, first.pose, config, workspace)?,
+        result: refine(first, workspace)?,
         prealign: first_shift,
         rematched: false,
     })

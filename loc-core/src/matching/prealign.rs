@@ -119,6 +119,30 @@ impl Cluster {
     }
 }
 
+/// The centroid weight `h⁴` of a landmark point `p` (vehicle frame) standing `h` into the
+/// tunnel off the nearer fitted wall (0 behind it or without walls). The same as
+/// `height_weight(strip.inward_distance_m(p))` without its square roots: with the normal
+/// distance `h = v / √(1 + f′²)` (`v` the inward vertical residual), `h⁴ = v⁴ / (1 + f′²)²`
+/// and the nearer wall is the one with the smaller `v² / (1 + f′²)`.
+#[inline]
+fn point_weight(strip: &StripSummary, p: Point2) -> f32 {
+    let inward = |w: &crate::strip::WallFit, sign: f32| {
+        let (r, slope) = w.cubic.residual_and_slope(p);
+        let v = sign * r;
+        (v, v * v / (1.0 + slope * slope))
+    };
+    let l = strip.left.as_ref().map(|w| inward(w, -1.0));
+    let r = strip.right.as_ref().map(|w| inward(w, 1.0));
+    let nearer = match (l, r) {
+        (Some(a), Some(b)) => Some(if a.1 <= b.1 { a } else { b }),
+        (a, b) => a.or(b),
+    };
+    match nearer {
+        Some((v, h_sq)) if v > 0.0 && h_sq.is_finite() => h_sq * h_sq,
+        _ => 0.0,
+    }
+}
+
 /// The centroid weight of a point `height_m` above its wall: `h⁴`.
 #[inline]
 fn height_weight(height_m: f32) -> f32 {
@@ -154,9 +178,12 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
         if *l != PointLabel::Landmark || !p.is_finite() {
             continue;
         }
-        let w = height_weight(strip.inward_distance_m(p).unwrap_or(0.0));
+        let w = point_weight(strip, p);
+        let gap_sq = config.max_cluster_gap_m * config.max_cluster_gap_m;
         current = match current {
-            Some(c) if c.last.dist(p) <= config.max_cluster_gap_m => Some(c.add(p, w)),
+            Some(c) if config.max_cluster_gap_m >= 0.0 && c.last.dist_sq(p) <= gap_sq => {
+                Some(c.add(p, w))
+            }
             other => {
                 if let Some(c) = other {
                     if c.count >= config.min_cluster_points {
@@ -301,4 +328,44 @@ fn nearest_landmark_centroid<M: MapQuery>(map: &M, p: Point2, radius_m: f32) -> 
     } else {
         plain
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::strip::{Cubic, LabelCounts, WallFit, XScaling};
+
+    fn wall(f: impl Fn(f32) -> f32) -> WallFit {
+        let s = XScaling::spanning(-5.0, 40.0);
+        let pts = [-5.0f32, 10.0, 25.0, 40.0].map(|x| Point2::new(x, f(x)));
+        WallFit {
+            cubic: Cubic::through(pts, s).unwrap(),
+            inliers: 100,
+            rms_m: 0.01,
+        }
+    }
+
+    #[test]
+    fn point_weight_is_the_fourth_power_of_the_inward_distance() {
+        let strip = StripSummary {
+            left: Some(wall(|x| 2.5 + 0.02 * x)),
+            right: Some(wall(|x| -2.5 - 0.001 * x * x)),
+            counts: LabelCounts::default(),
+        };
+        for i in 0..200 {
+            let p = Point2::new(-4.0 + 0.22 * i as f32, -3.0 + 0.031 * i as f32);
+            let want = height_weight(strip.inward_distance_m(p).unwrap_or(0.0));
+            let got = point_weight(&strip, p);
+            assert!(
+                (got - want).abs() <= 1e-4 * want.max(1e-6),
+                "{p:?}: {got} vs {want}"
+            );
+        }
+        let none = StripSummary {
+            left: None,
+            right: None,
+            counts: LabelCounts::default(),
+        };
+        assert_eq!(point_weight(&none, Point2::new(1.0, 1.0)), 0.0);
+    }
 }
