@@ -9,7 +9,9 @@
 //!    shifted pose and keep that result.
 //!
 //! In steady tracking (a prediction good to a few centimetres) both pre-alignments are
-//! skipped; the second match runs only after a large along-tunnel error.
+//! skipped; the second match runs only after a large along-tunnel error. A shift beyond
+//! `max_shift_sigmas` prediction standard deviations is not applied (a cluster matched to
+//! the wrong landmark).
 //!
 //! When the prediction is poor (the pre-alignment path), the pull-in runs **coarse to
 //! fine**: the matches of steps 1 and 2 use every n-th selected point (at most
@@ -73,8 +75,15 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
             break;
         }
     }
-    let first_shift = prealign_along_tunnel(map, points, labels, strip, predicted, prealign)
-        .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
+    // A shift the prediction's own uncertainty makes implausible is a landmark cluster
+    // matched to the wrong map landmark (one wall of look-alike landmarks, some missing):
+    // following it would lock the estimate confidently onto a wrong position.
+    let plausible = |s: &PrealignShift| {
+        let n = s.shift_world.norm();
+        n > prealign.min_shift_m && !(n > prealign.max_shift_sigmas * prior_position_sd_m)
+    };
+    let first_shift =
+        prealign_along_tunnel(map, points, labels, strip, predicted, prealign).filter(plausible);
     let start = first_shift.map_or(predicted, |s| s.pose);
     let Ok(first) = match_scan(map, &coarse, start, config, workspace) else {
         // Too few coarse points or no coarse convergence: the full set decides alone.
@@ -93,8 +102,8 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
             match_scan(map, selected, coarse_result.pose, config, workspace)
         }
     };
-    let again = prealign_along_tunnel(map, points, labels, strip, first.pose, prealign)
-        .filter(|s| s.shift_world.norm() > prealign.min_shift_m);
+    let again =
+        prealign_along_tunnel(map, points, labels, strip, first.pose, prealign).filter(plausible);
     if let Some(shift) = again {
         if let Ok(second) = match_scan(map, &coarse, shift.pose, config, workspace) {
             return Ok(GuidedMatch {

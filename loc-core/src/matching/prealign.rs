@@ -45,6 +45,10 @@ pub struct PrealignConfig {
     /// steady tracking the prediction is better than the pre-alignment (see
     /// [`super::match_scan_with_prealign`]).
     pub min_shift_m: f32,
+    /// Shifts longer than this many standard deviations of the predicted position are not
+    /// applied by [`super::match_scan_with_prealign`]: the cluster met the wrong map landmark
+    /// (with landmarks on one wall only, a few missing, the next one along can look right).
+    pub max_shift_sigmas: f32,
 }
 
 impl Default for PrealignConfig {
@@ -58,6 +62,7 @@ impl Default for PrealignConfig {
             max_disagreement_m: 0.25,
             max_cluster_range_m: 20.0,
             min_shift_m: 0.12,
+            max_shift_sigmas: 4.0,
         }
     }
 }

@@ -127,6 +127,18 @@ impl MapQuery for BruteMap {
 
 /// Strip, select, pre-align, match: the pipeline the localizer runs.
 fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) -> MatchResult {
+    guided(map, truth, guess, f32::INFINITY, config).result
+}
+
+/// [`pipeline`] with the prediction's position standard deviation, returning the whole
+/// guided match.
+fn guided(
+    map: &BruteMap,
+    truth: Pose2,
+    guess: Pose2,
+    prior_sd_m: f32,
+    config: &MatchConfig,
+) -> GuidedMatch {
     let pts = map.scan(truth, 0.01, 7);
     let mut labels = [PointLabel::Outlier; 1141];
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
@@ -140,13 +152,28 @@ fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) ->
         &strip,
         &sel,
         guess,
-        f32::INFINITY,
+        prior_sd_m,
         &PrealignConfig::default(),
         config,
         &mut ws,
     )
     .unwrap()
-    .result
+}
+
+#[test]
+fn implausible_prealignment_is_not_applied() {
+    let map = BruteMap::tunnel(true);
+    let truth = Pose2::new(20.0, 0.3, 0.02);
+    let guess = Pose2::new(20.5, 0.3, 0.02);
+    let cfg = MatchConfig::default();
+    // Nothing known about the prediction: the 0.5 m shift is taken and the pose recovered.
+    let free = guided(&map, truth, guess, f32::INFINITY, &cfg);
+    assert!(free.prealign.is_some(), "{free:?}");
+    assert_close(&free.result, truth, 0.01, 0.2f32.to_radians());
+    // A prediction claimed good to 5 cm cannot be 0.5 m off: the shift is refused (a
+    // cluster on the wrong landmark looks just like this).
+    let tight = guided(&map, truth, guess, 0.05, &cfg);
+    assert!(tight.prealign.is_none(), "{tight:?}");
 }
 
 fn assert_close(r: &MatchResult, truth: Pose2, tol_m: f32, tol_rad: f32) {
