@@ -80,7 +80,9 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     // following it would lock the estimate confidently onto a wrong position.
     let plausible = |s: &PrealignShift| {
         let n = s.shift_world.norm();
-        n > prealign.min_shift_m && !(n > prealign.max_shift_sigmas * prior_position_sd_m)
+        let limit_m = prealign.max_shift_sigmas * prior_position_sd_m;
+        // An unknown (NaN) limit limits nothing.
+        n > prealign.min_shift_m && (n <= limit_m || limit_m.is_nan())
     };
     let first_shift =
         prealign_along_tunnel(map, points, labels, strip, predicted, prealign).filter(plausible);
