@@ -191,8 +191,8 @@ impl DroppedBeams {
 
 /// The valid beams of one scan as vehicle-frame points, in beam order, with the counts of
 /// dropped beams. Fixed capacity [`LMS511_MAX_BEAMS`] (about 32 KiB with the beam-direction
-/// table): build it once and
-/// refill it with the `load_*` methods rather than moving it around on small stacks.
+/// table): build it once and refill it with the `load_*` methods rather than moving it
+/// around on small stacks.
 #[derive(Debug, Clone, Default)]
 pub struct Scan {
     points: heapless::Vec<ScanPoint, LMS511_MAX_BEAMS>,
