@@ -125,6 +125,8 @@ else
 fi
 
 echo "--> controller under QEMU against the LMS5xx emulator (hardware-in-the-loop)"
+echo "    (no -icount in this run: the per-scan counts it logs follow QEMU's clock, not the"
+echo "     instructions executed; the instruction budget is the bench's, above)"
 # The controller (built to stop after HIL_SCANS scans) runs the LMS start-up sequence over
 # UART0, which QEMU connects to lidar-driver's emulator replaying the recorded scans as CoLa-B.
 # No -icount here: in icount mode QEMU feeds the UART one byte per main-loop turn, far
