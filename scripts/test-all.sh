@@ -25,7 +25,7 @@ step() {
 step "setup" bash scripts/setup.sh
 step "rustfmt" cargo fmt --all -- --check
 step "clippy (host workspace)" cargo clippy --workspace --all-targets --release -- -D warnings
-step "cargo test (host workspace)" cargo test --workspace --release
+step "cargo test (host workspace)" cargo test --workspace --release --no-fail-fast
 step "loc-core for thumbv7em-none-eabihf" \
   cargo build -p loc-core --release --target thumbv7em-none-eabihf
 if [ -x firmware/run-qemu-tests.sh ]; then

@@ -130,10 +130,7 @@ fn replay_names_what_is_missing() {
 /// scored, and nothing panics on a scene that matches no map.
 #[test]
 fn replays_a_real_lms511_capture_without_ground_truth() {
-    let capture = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/captures/lms511_20210302_colab.pcapng.json"
-    );
+    let capture = sick_captures::path(sick_captures::LMS511_JSON);
     let dir = tempfile::tempdir().unwrap();
     let s = named("paper-10m").unwrap();
     let (_, map_file) = record::scenario_map(&s).unwrap();

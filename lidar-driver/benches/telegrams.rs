@@ -5,7 +5,6 @@
 //! ≥ 1 GB/s on a clean stream. Times are the benchmark thread's CPU time (see `cpu_clock`).
 
 use std::hint::black_box;
-use std::path::PathBuf;
 
 mod cpu_clock;
 
@@ -14,9 +13,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use lidar_driver::{Dialect, Frame, Framer, ScanData, ScanRepr};
 
 fn capture() -> Vec<u8> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/captures/lms511_20210302_colab.sensor_to_host.colab.bin");
-    std::fs::read(p).expect("LMS511 capture")
+    sick_captures::read(sick_captures::LMS511_S2H)
 }
 
 /// The first scan of the capture, as captured (CoLa-B) and re-encoded as CoLa-A.

@@ -205,12 +205,12 @@ fn busy_during_the_startup_delay() {
 fn identity_from_a_recording_is_what_that_sensor_answered() {
     use lidar_driver::emulator::DeviceIdentity;
     use lidar_driver::recording::Recording;
-    let lms511 = Recording::read_file(capture("lms511_20210302_colab.pcapng.json")).unwrap();
+    let lms511 = Recording::read_file(capture(sick_captures::LMS511_JSON)).unwrap();
     assert_eq!(
         DeviceIdentity::from_recording(&lms511),
         DeviceIdentity::lms511_capture()
     );
-    let lms111 = Recording::read_file(capture("lms111_20210302_colab.pcapng.json")).unwrap();
+    let lms111 = Recording::read_file(capture(sick_captures::LMS111_JSON)).unwrap();
     let id = DeviceIdentity::from_recording(&lms111);
     assert_eq!(id.firmware_version, b"V1.80.2  ");
     assert_eq!(id.location_name, b"not defined");

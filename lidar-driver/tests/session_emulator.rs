@@ -486,7 +486,7 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
 fn emulates_the_lms111_of_its_recording() {
     use lidar_driver::emulator::{DeviceIdentity, RecordingSource};
     use lidar_driver::recording::Recording;
-    let rec = Recording::read_file(capture("lms111_20210302_colab.pcapng.json")).unwrap();
+    let rec = Recording::read_file(capture(sick_captures::LMS111_JSON)).unwrap();
     let emu = Emulator::start(
         EmulatorConfig {
             identity: DeviceIdentity::from_recording(&rec),

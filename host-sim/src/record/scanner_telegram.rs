@@ -1,7 +1,7 @@
 //! The simulated LMS511's `sSN LMDscandata` telegrams, byte for byte as the real scanner
 //! streams them in CoLa-B (built as lidar-driver's [`ScanRepr`] and emitted by it).
 //!
-//! Header fields follow the real LMS511 capture in `shared/captures` (firmware V1.80):
+//! Header fields follow the real LMS511 capture in `lidar-driver/captures` (firmware V1.80):
 //! version 0, device number 1, device status `01 00` on the first scan of the stream then
 //! `00 00`, the scan counter counting scans since power-up and the telegram counter counting
 //! streamed telegrams, time since start-up in µs at the first shot (wrapping after 71.6 min),
@@ -171,11 +171,8 @@ mod tests {
 
     /// The first scan of the real LMS511 capture (firmware V1.80).
     fn real_first_scan() -> ScanRepr {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/captures/lms511_20210302_colab.sensor_to_host.colab.bin"
-        );
-        let rec = Recording::read_file(path).expect("the real LMS511 capture");
+        let path = sick_captures::path(sick_captures::LMS511_S2H);
+        let rec = Recording::read_file(&path).expect("the real LMS511 capture");
         let frames = rec.frames();
         let f = frames
             .frames

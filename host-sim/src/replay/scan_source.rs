@@ -254,19 +254,12 @@ mod tests {
     use super::*;
     use crate::lidar::ScanRate;
 
-    const CAPTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/captures/");
-
     #[test]
     fn real_lms511_capture_decodes_in_both_formats_with_their_clocks() {
         let spec = LidarSpec::default();
-        let raw = read_scans(
-            &Path::new(CAPTURES).join("lms511_20210302_colab.sensor_to_host.colab.bin"),
-            None,
-            &spec,
-        )
-        .unwrap();
+        let raw = read_scans(&sick_captures::path(sick_captures::LMS511_S2H), None, &spec).unwrap();
         let json = read_scans(
-            &Path::new(CAPTURES).join("lms511_20210302_colab.pcapng.json"),
+            &sick_captures::path(sick_captures::LMS511_JSON),
             None,
             &spec,
         )
@@ -288,7 +281,7 @@ mod tests {
             ..spec
         };
         let e = read_scans(
-            &Path::new(CAPTURES).join("lms511_20210302_colab.sensor_to_host.colab.bin"),
+            &sick_captures::path(sick_captures::LMS511_S2H),
             None,
             &wrong,
         )

@@ -445,11 +445,7 @@ mod stream_props {
 
     /// The first `n` scans of the LMS511 capture's sensor stream, as CoLa-B frames.
     fn recorded_scans(n: usize) -> Vec<Vec<u8>> {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/captures/lms511_20210302_colab.sensor_to_host.colab.bin"
-        );
-        let bytes = std::fs::read(path).expect("capture");
+        let bytes = sick_captures::read(sick_captures::LMS511_S2H);
         let mut f = Framer::new(vec![0u8; 64 * 1024]);
         let mut out = Vec::new();
         f.feed(&bytes, |r| {

@@ -1,7 +1,6 @@
 //! Helpers for the session and emulator tests: capture paths, a session loop with a deadline.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
@@ -10,16 +9,11 @@ use lidar_driver::emulator::RecordingSource;
 use lidar_driver::session::{Event, Session, SessionConfig, Timeouts};
 use lidar_driver::Transport;
 
-/// `../shared/captures/<name>` relative to the workspace root.
-pub fn capture(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/captures")
-        .join(name)
-}
+pub use sick_captures::path as capture;
 
 /// The 174 scans of the LMS511 capture, replayed in a loop.
 pub fn lms511_source() -> RecordingSource {
-    RecordingSource::from_file(capture("lms511_20210302_colab.pcapng.json"))
+    RecordingSource::from_file(capture(sick_captures::LMS511_JSON))
         .expect("LMS511 capture readable")
 }
 
