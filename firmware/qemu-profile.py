@@ -13,7 +13,8 @@ SysTick, split by function (inlined code counts for the function it was inlined 
     firmware/qemu-profile.py ELF --log /tmp/trace.log --keep           # reuse a trace
 
 The trace is large (about 1.5 GB for the 40-scan benchmark) and goes to a temporary file
-unless --log is given. The map flash region is loaded as qemu-run.sh does.
+unless --log is given. The map flash region (map and start pose) is loaded as qemu-run.sh
+does.
 """
 import argparse
 import collections
@@ -28,10 +29,11 @@ HELPERS = ("sqrtf", "fmaxf", "fminf", "floorf", "hypotf", "__aeabi", "compiler_b
 
 def run_qemu(elf, log):
     loader = []
-    maps = sorted(glob.glob(os.path.join(os.path.dirname(elf), "build/firmware-*/out/map.bin")),
+    outs = sorted(glob.glob(os.path.join(os.path.dirname(elf), "build/firmware-testbench-*/out")),
                   key=os.path.getmtime)
-    if maps:
-        loader = ["-device", f"loader,file={maps[-1]},addr=0x00300000"]
+    if outs:
+        loader = ["-device", f"loader,file={outs[-1]}/map.bin,addr=0x00300000",
+                  "-device", f"loader,file={outs[-1]}/start_pose.bin,addr=0x003FF000"]
     cmd = ["qemu-system-arm", "-machine", "mps2-an386", "-nographic",
            "-semihosting-config", "enable=on,target=native", "-icount", "shift=0",
            "-serial", "null", *loader, "-d", "in_asm,exec,nochain", "-D", log, "-kernel", elf]

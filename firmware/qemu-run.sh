@@ -5,11 +5,13 @@
 #   usage: qemu-run.sh ELF   (env: QEMU_TIMEOUT_S, default 300; QEMU_SERIAL, default null)
 set -euo pipefail
 elf=$1
-# The recorded map of this build goes into the map flash region (0x00300000), as a flasher
-# would put it (the selftest checks it; the controller uses it).
-map_file=$(ls -t "$(dirname "$elf")"/build/firmware-*/out/map.bin 2>/dev/null | head -1 || true)
+# The testbench's recorded map and start pose go into the map flash region (the map at
+# 0x00300000, the start pose in its last 4 KiB at 0x003FF000), as a flasher would put them
+# (the selftest checks them; the controller uses them).
+out_dir=$(ls -td "$(dirname "$elf")"/build/firmware-testbench-*/out 2>/dev/null | head -1 || true)
 loader=()
-[ -n "$map_file" ] && loader=(-device "loader,file=$map_file,addr=0x00300000")
+[ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
+  -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 timeout "${QEMU_TIMEOUT_S:-300}" qemu-system-arm \
   -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \

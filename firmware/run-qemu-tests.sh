@@ -51,25 +51,31 @@ run_qemu() {
   return $status
 }
 
-echo "--> build (release, thumbv7em-none-eabihf, board mps2-an386)"
-if cargo build --release --bins; then pass "build"; else fail "build"; fi
-echo "--> clippy (firmware, -D warnings)"
-if cargo clippy --release --bins -- -D warnings; then pass "clippy"; else fail "clippy"; fi
+echo "--> build (release, thumbv7em-none-eabihf, board mps2-an386: product and testbench)"
+if cargo build --release --workspace --bins; then pass "build"; else fail "build"; fi
+echo "--> clippy (firmware and testbench, -D warnings)"
+if cargo clippy --release --workspace --bins -- -D warnings; then pass "clippy"; else fail "clippy"; fi
 
 echo "--> build for the real board (NUCLEO-H743ZI2, stm32h7xx-hal, defmt-rtt)"
-if CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins \
-  --no-default-features --features board-nucleo-h743zi; then
+if CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins -p firmware \
+  --no-default-features --features board-nucleo-h743zi \
+  && CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins \
+    -p firmware-testbench --no-default-features --features board-nucleo-h743zi; then
   pass "build nucleo-h743zi"
 else
   fail "build nucleo-h743zi"
 fi
 
+# The testbench's recording: the map file and the start-pose record go into the board's map
+# flash region (the map from its first byte, the start pose in its last 4 KiB), as a flasher
+# would put them.
+out_dir=$(ls -td "$elf_dir"/build/firmware-testbench-*/out 2>/dev/null | head -1)
+flash_map=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
+  -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
+
 echo "--> selftest under QEMU"
 if [ -x "$elf_dir/selftest" ]; then
-  # The recorded map goes into the board's map flash region, as a flasher would put it.
-  map_file=$(ls -t "$elf_dir"/build/firmware-*/out/map.bin 2>/dev/null | head -1)
-  run_qemu "$elf_dir/selftest" "$work/uart0.bin" \
-    -device "loader,file=$map_file,addr=0x00300000" | tee "$work/selftest.log"
+  run_qemu "$elf_dir/selftest" "$work/uart0.bin" "${flash_map[@]}" | tee "$work/selftest.log"
   status=${PIPESTATUS[0]}
   # The test binary's own counts become part of this script's count.
   read -r st_pass st_fail < <(grep -E '^[0-9]+ passed, [0-9]+ failed$' "$work/selftest.log" \
@@ -135,7 +141,7 @@ HIL_SCANS=40
 host_target=${CARGO_TARGET_DIR:-$PWD/../target}
 if (cd .. && cargo build --release --quiet -p lidar-driver --bin lms5xx-emulator) \
   && FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller; then
-  recording=$(ls -t "$elf_dir"/build/firmware-*/out/scans_colab.bin 2>/dev/null | head -1)
+  recording=$out_dir/scans_colab.bin
   "$host_target/release/lms5xx-emulator" --recording "$recording" --port 0 \
     --duration-s "$QEMU_TIMEOUT_S" >"$work/emulator.log" 2>&1 &
   emulator_pid=$!
@@ -148,7 +154,8 @@ if (cd .. && cargo build --release --quiet -p lidar-driver --bin lms5xx-emulator
   if [ -n "$port" ]; then
     timeout "$QEMU_TIMEOUT_S" qemu-system-arm -machine mps2-an386 -nographic \
       -semihosting-config enable=on,target=native \
-      -serial "tcp:127.0.0.1:$port" -kernel "$elf_dir/controller" >"$work/raw.defmt"
+      -serial "tcp:127.0.0.1:$port" "${flash_map[@]}" \
+      -kernel "$elf_dir/controller" >"$work/raw.defmt"
     status=$?
     defmt-print -e "$elf_dir/controller" <"$work/raw.defmt" | tee "$work/controller.log"
     tracking=$(grep -c ') Tracking in' "$work/controller.log")
@@ -165,6 +172,19 @@ if (cd .. && cargo build --release --quiet -p lidar-driver --bin lms5xx-emulator
   wait "$emulator_pid" 2>/dev/null
 else
   fail "build of the emulator or the controller"
+fi
+
+echo "--> controller without a map (erased map flash region): reports it and waits"
+timeout 8 qemu-system-arm -machine mps2-an386 -nographic \
+  -semihosting-config enable=on,target=native \
+  -serial "file:$work/uart0-nomap.bin" -kernel "$elf_dir/controller" >"$work/raw.defmt"
+status=$?
+defmt-print -e "$elf_dir/controller" <"$work/raw.defmt" | tee "$work/nomap.log"
+frames=$(od -An -v -tx1 "$work/uart0-nomap.bin" 2>/dev/null | tr ' ' '\n' | grep -c '^00$')
+if [ "$status" -eq 124 ] && grep -q 'no usable map' "$work/nomap.log" && [ "$frames" -ge 2 ]; then
+  pass "controller without a map waits, logs it and sends NoMap frames ($frames)"
+else
+  fail "controller without a map (QEMU status $status, 124 = still waiting; $frames frames)"
 fi
 
 echo

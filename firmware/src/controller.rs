@@ -1,148 +1,231 @@
 //! The controller loop: LMS511 telegrams in over the board's serial port, a pose frame out on
 //! the same port after every scan.
 //!
-//! Start-up: the stored map is loaded from the board's map flash region; when that region
-//! holds no map (erased: bad magic), the map built into the image (the recording's) is used.
-//! A damaged map (checksum, version) stops the controller: it never localises on a wrong map.
+//! **Start-up.** The board's map flash region holds the stored map (a loc-core map file,
+//! `LCMP`, from its first byte) and, in its last [`START_POSE_BLOCK_BYTES`], the start pose
+//! (a loc-core [`StartPose`] record, `LCSP`: where the vehicle stands at power-up and how
+//! sure that is), both written by the flasher (`probe-rs download`, QEMU's `-device
+//! loader`). Without a valid map the controller never localises: it logs why, sends a
+//! [`PoseStatus::NoMap`] frame once a second and waits for a map to be flashed. Without a
+//! start pose (erased block) it starts at the tunnel's entrance (chainage 0, between the
+//! walls, heading along them) with 1 m / 0.1 rad 1σ; a damaged start pose is reported and
+//! treated the same way. (Relocalisation without a start pose comes with the next issues.)
 //!
-//! Motion prediction: this board has no odometry input yet, so each scan is predicted with
-//! the motion between the two previous estimates (constant velocity) and the uncertainty of
-//! an unmeasured motion ([`UNMEASURED_MOTION_SIGMA`] per scan); wire the wheel odometry into
-//! [`Controller::on_scan`]'s prediction when the vehicle interface exists.
+//! **Motion prediction.** [`Controller::predict`] takes wheel odometry when the vehicle
+//! interface gives it; without it each scan is predicted with the motion between the two
+//! previous estimates (constant velocity) and the uncertainty of an unmeasured motion
+//! ([`UNMEASURED_MOTION_SIGMA`] per scan).
 
 use lidar_driver::session::{Event, Session, SessionConfig};
+use lidar_driver::transport::FixedLink;
 use lidar_driver::ScanData;
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
-use loc_core::localizer::{Localizer, LocalizerConfig, Status};
+use loc_core::localizer::{
+    Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
+};
 use loc_core::map::{MapError, TunnelMap, WallSide};
-use loc_core::scan::{Scan, LMS511_MAX_BEAMS};
+use loc_core::scan::Scan;
 use nalgebra::{Matrix3, Vector3};
+use scan_input::ScanInputError;
 
 use crate::board::{Board, ExitStatus};
 use crate::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
-use crate::recorded;
-use crate::replay::{INITIAL_ERROR, INITIAL_SIGMA};
-use crate::scan_input::{load_scan, ScanInputError};
-use lidar_driver::transport::FixedLink;
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
+
+/// The last bytes of the map flash region, where the start-pose record lives.
+pub const START_POSE_BLOCK_BYTES: usize = 4096;
 
 /// 1σ of the motion between two scans when no odometry is wired: forward and left metres,
 /// heading radians (a loader at up to 10 m/s moves 0.4 m per 25 Hz scan).
 pub const UNMEASURED_MOTION_SIGMA: [f32; 3] = [0.3, 0.1, 0.03];
 
-/// Which map the controller runs on.
+/// 1σ of the default start at the tunnel's entrance: metres (each axis), radians.
+pub const DEFAULT_START_SIGMA: [f32; 2] = [1.0, 0.1];
+
+/// Where the controller's start pose came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum MapSource {
-    /// The board's map flash region.
-    FlashRegion,
-    /// The map built into the image (the recording's tunnel).
-    BuiltIn,
+pub enum StartSource {
+    /// The start-pose record of the map flash region.
+    Record,
+    /// No record (erased): the tunnel's entrance.
+    Entrance,
+    /// A damaged or unreadable record: the tunnel's entrance (the record is ignored).
+    EntranceRecordUnusable,
 }
 
-/// Loads the map: the flash region if it holds one, else the built-in map. Returns the map
-/// source and the initial pose and covariance to start from: the recording's start pose
-/// (with the replay's initial error) for the built-in map, the tunnel's start (chainage 0,
-/// between the walls, heading along them, 1 m / 0.1 rad 1σ) for a flashed map.
-pub fn load_map(
+/// The map flash region split into the map file and the start-pose block.
+pub fn split_region(region: &[u8]) -> (&[u8], &[u8]) {
+    region.split_at(region.len().saturating_sub(START_POSE_BLOCK_BYTES))
+}
+
+/// Loads the map from `region` (the map flash region) into `map`.
+pub fn load_map(region: &[u8], map: &mut TunnelMap) -> Result<(), MapError> {
+    map.load_from_bytes(split_region(region).0)
+}
+
+/// The start pose: the record in `region`'s start-pose block, else the entrance of `map`
+/// (chainage 0 between the walls, heading along them) with [`DEFAULT_START_SIGMA`]. Also
+/// says which, and the record's error when it was unusable.
+pub fn start_pose(
     region: &[u8],
-    map: &mut TunnelMap,
-) -> Result<(MapSource, Pose2, Matrix3<f32>), MapError> {
-    match map.load_from_bytes(region) {
-        Ok(()) => {
-            let (Some(l), Some(r)) = (
-                map.wall_frame_at(WallSide::Left, 0.0),
-                map.wall_frame_at(WallSide::Right, 0.0),
-            ) else {
-                return Err(MapError::Corrupt {
-                    part: "walls (no start point)",
-                    index: 0,
-                });
-            };
-            let mid = l.anchor.add(r.anchor).scale(0.5);
-            let heading = loc_core::math::atan2(l.tangent.y_m, l.tangent.x_m);
-            let cov = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.01));
-            Ok((
-                MapSource::FlashRegion,
-                Pose2::new(mid.x_m, mid.y_m, heading),
-                cov,
-            ))
-        }
-        Err(MapError::BadMagic { .. }) => {
-            map.load_from_bytes(recorded::MAP_BYTES)?;
-            let [x, y, th] = recorded::TRUE_POSES[0];
-            let [ex, ey, eth] = INITIAL_ERROR;
-            let [sx, sy, sth] = INITIAL_SIGMA;
-            let cov = Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, sth * sth));
-            Ok((
-                MapSource::BuiltIn,
-                Pose2::new(x + ex, y + ey, th + eth),
-                cov,
-            ))
-        }
-        Err(e) => Err(e),
+    map: &TunnelMap,
+) -> Result<(StartSource, StartPose, Option<StartPoseError>), MapError> {
+    let record = StartPose::from_bytes(split_region(region).1);
+    if let Ok(start) = record {
+        return Ok((StartSource::Record, start, None));
     }
+    let (Some(l), Some(r)) = (
+        map.wall_frame_at(WallSide::Left, 0.0),
+        map.wall_frame_at(WallSide::Right, 0.0),
+    ) else {
+        return Err(MapError::Corrupt {
+            part: "walls (no start point)",
+            index: 0,
+        });
+    };
+    let mid = l.anchor.add(r.anchor).scale(0.5);
+    let entrance = StartPose {
+        pose: Pose2::new(
+            mid.x_m,
+            mid.y_m,
+            loc_core::math::atan2(l.tangent.y_m, l.tangent.x_m),
+        ),
+        sigma_xy_m: DEFAULT_START_SIGMA[0],
+        sigma_theta_rad: DEFAULT_START_SIGMA[1],
+    };
+    Ok(match record {
+        Err(StartPoseError::NotPresent) => (StartSource::Entrance, entrance, None),
+        Err(e) => (StartSource::EntranceRecordUnusable, entrance, Some(e)),
+        Ok(_) => (StartSource::Record, entrance, None),
+    })
 }
 
-/// The localisation side of the controller (≈ 50 KiB: keep it in a static).
+/// The localisation side of the controller (≈ 70 KiB: keep it in a static).
 pub struct Controller<'m> {
     localizer: Localizer<'m, TunnelMap>,
     scan: Scan,
-    raw: [u16; LMS511_MAX_BEAMS],
     motion: OdometryIncrement,
     last_pose: Option<Pose2>,
 }
 
 impl<'m> Controller<'m> {
-    /// A controller on `map`, starting at `pose` with covariance `cov`.
-    pub fn new(map: &'m TunnelMap, pose: Pose2, cov: Matrix3<f32>) -> Option<Self> {
-        let localizer = Localizer::new(map, LocalizerConfig::default(), pose, cov).ok()?;
+    /// A controller on `map` with loc-core's default configuration, starting at `start`.
+    pub fn new(map: &'m TunnelMap, start: &StartPose) -> Option<Self> {
+        let localizer = Localizer::new(
+            map,
+            LocalizerConfig::default(),
+            start.pose,
+            start.covariance(),
+        )
+        .ok()?;
         Some(Self {
             localizer,
             scan: Scan::new(),
-            raw: [0; LMS511_MAX_BEAMS],
             motion: OdometryIncrement::default(),
             last_pose: None,
         })
     }
 
-    /// The localizer's status after the last scan.
-    pub fn status(&self) -> Status {
-        self.localizer.status()
+    /// The localizer (status, pose, last strip and match).
+    pub fn localizer(&self) -> &Localizer<'m, TunnelMap> {
+        &self.localizer
     }
 
-    /// Localises on one scan telegram and returns the pose frame to send.
-    pub fn on_scan(&mut self, telegram: &ScanData<'_>) -> Result<PoseFrame, ScanInputError> {
-        // A rejected (implausible) increment leaves the state unchanged.
-        let [sx, sy, sth] = UNMEASURED_MOTION_SIGMA;
-        let motion_cov = Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, sth * sth));
-        let _ = self
-            .localizer
-            .predict_odometry_with_covariance(&self.motion, &motion_cov);
+    /// Predicts the motion since the last scan: with `odometry` (vehicle frame, loc-core's
+    /// noise model) when the vehicle gives it, else with constant velocity and
+    /// [`UNMEASURED_MOTION_SIGMA`]. A rejected (implausible) increment leaves the state as
+    /// it was.
+    pub fn predict(&mut self, odometry: Option<&OdometryIncrement>) {
+        let _ = match odometry {
+            Some(inc) => self.localizer.predict_odometry(inc),
+            None => {
+                let [sx, sy, sth] = UNMEASURED_MOTION_SIGMA;
+                let q = Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, sth * sth));
+                self.localizer
+                    .predict_odometry_with_covariance(&self.motion, &q)
+            }
+        };
+    }
+
+    /// Turns `telegram`'s `DIST1` channel into the scan to localise on (scan-input: the
+    /// telegram's own layout and scale).
+    pub fn load_scan(&mut self, telegram: &ScanData<'_>) -> Result<(), ScanInputError> {
         let sensor = self.localizer.config().sensor;
-        load_scan(telegram, &sensor, &mut self.raw, &mut self.scan)?;
-        let status = self.localizer.update_scan(&self.scan);
+        scan_input::load_scan(telegram, &sensor, &mut self.scan).map(|_| ())
+    }
+
+    /// Localises on the loaded scan, reporting loc-core's stages to `observer`, and returns
+    /// the pose frame to send (`sequence`: the telegram's scan counter).
+    pub fn localise<O: StageObserver>(&mut self, sequence: u32, observer: &mut O) -> PoseFrame {
+        let status = self.localizer.update_scan_observed(&self.scan, observer);
         let pose = self.localizer.pose().unwrap_or(Pose2::IDENTITY);
         if let Some(previous) = self.last_pose {
             self.motion = OdometryIncrement::between(&previous, &pose);
         }
         self.last_pose = Some(pose);
         let c = self.localizer.covariance().unwrap_or([[0.0; 3]; 3]);
-        Ok(PoseFrame {
-            sequence: u32::from(telegram.header.scan_counter),
+        PoseFrame {
+            sequence,
             x_m: pose.x_m,
             y_m: pose.y_m,
             theta_rad: pose.theta_rad,
             covariance_upper: [c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]],
-            status: match status {
-                Status::Tracking => PoseStatus::Tracking,
-                Status::Degenerate { .. } => PoseStatus::Degenerate,
-                Status::NotInitialised => PoseStatus::NotInitialised,
-                Status::DeadReckoning | Status::MatchRejected { .. } => PoseStatus::OdometryOnly,
-            },
-        })
+            status: PoseStatus::of(&status),
+        }
+    }
+
+    /// One scan as the vehicle runs it: [`Controller::predict`] (no odometry yet),
+    /// [`Controller::load_scan`], [`Controller::localise`].
+    pub fn on_scan(&mut self, telegram: &ScanData<'_>) -> Result<PoseFrame, ScanInputError> {
+        self.predict(None);
+        self.load_scan(telegram)?;
+        Ok(self.localise(u32::from(telegram.header.scan_counter), &mut ()))
+    }
+}
+
+impl PoseStatus {
+    /// The wire status of a localiser status.
+    pub fn of(status: &Status) -> Self {
+        match status {
+            Status::Tracking => PoseStatus::Tracking,
+            Status::Degenerate { .. } => PoseStatus::Degenerate,
+            Status::NotInitialised => PoseStatus::NotInitialised,
+            Status::DeadReckoning | Status::MatchRejected { .. } => PoseStatus::OdometryOnly,
+        }
+    }
+}
+
+/// Sends `frame` on the board's serial port (a failed write is logged, not fatal).
+fn send<B: Board>(board: &mut B, frame: &PoseFrame) {
+    use embedded_io::Write;
+    let mut buf = [0u8; MAX_FRAME_BYTES];
+    if let Ok(bytes) = frame.encode(&mut buf) {
+        if board.serial().write_all(bytes).is_err() {
+            defmt::warn!("pose frame not sent: UART error");
+        }
+    }
+}
+
+/// Without a usable map: reports it once, then sends a [`PoseStatus::NoMap`] frame every
+/// second, for ever (a map must be flashed and the controller reset).
+pub fn wait_without_map<B: Board>(board: &mut B, error: &MapError) -> ! {
+    defmt::error!(
+        "no usable map in the map flash region: {}; not localising (flash a map file made by host-sim export-map, then reset)",
+        defmt::Display2Format(error)
+    );
+    let mut sequence = 0u32;
+    let mut next_ms = board.now_ms();
+    loop {
+        let now = board.now_ms();
+        if now >= next_ms {
+            send(board, &PoseFrame::no_map(sequence));
+            sequence = sequence.wrapping_add(1);
+            next_ms = now + 1000;
+        }
+        cortex_m::asm::nop();
     }
 }
 
@@ -156,7 +239,6 @@ pub fn run<B: Board>(
 ) -> ! {
     let mut session = Session::new(session_buf, SessionConfig::default());
     let mut scans = 0u32;
-    let mut frame_buf = [0u8; MAX_FRAME_BYTES];
     loop {
         // The session reads the clock a few times per poll; one reading per poll suffices.
         let now_ms = board.now_ms();
@@ -181,7 +263,7 @@ pub fn run<B: Board>(
                         if frame.status == PoseStatus::OdometryOnly {
                             defmt::info!(
                                 "  scan not used: {}",
-                                defmt::Debug2Format(&controller.status())
+                                defmt::Display2Format(&controller.localizer().status())
                             );
                         }
                         Some(frame)
@@ -198,17 +280,12 @@ pub fn run<B: Board>(
             }
             Event::Idle => None,
             other => {
-                defmt::info!("LMS session: {}", defmt::Debug2Format(&other));
+                defmt::info!("LMS session: {}", defmt::Display2Format(&other));
                 None
             }
         };
         if let Some(frame) = frame {
-            if let Ok(bytes) = frame.encode(&mut frame_buf) {
-                use embedded_io::Write;
-                if board.serial().write_all(bytes).is_err() {
-                    defmt::warn!("pose frame not sent: UART error");
-                }
-            }
+            send(board, &frame);
             scans += 1;
             if scan_limit.is_some_and(|limit| scans >= limit) {
                 defmt::println!(

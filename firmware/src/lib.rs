@@ -1,27 +1,23 @@
 //! # firmware: the localisation controller for Cortex-M4F / M7
 //!
-//! Runs `loc-core` on a microcontroller: LMS511 ranges in, pose with covariance out, no heap,
-//! fixed memory, bounded time. The library holds everything; the binaries are thin:
+//! Runs `loc-core` on a microcontroller: LMS511 telegrams in, pose with covariance out, no
+//! heap, fixed memory, bounded time. This crate is the product:
 //!
-//! - `bench`: the end-to-end loc-core pipeline (strip, match, filter) on recorded synthetic
-//!   1141-point scans, instructions per scan per stage, checked against the budget;
-//! - `selftest`: on-target tests printing `N passed, N failed`.
+//! - [`board`]: the board abstraction (serial port, counter, clock, map flash region, exit)
+//!   and one module per board; one board is compiled in (under QEMU: `mps2-an386`);
+//! - [`controller`]: the loop a vehicle runs (LMS session, localiser, pose frames), the
+//!   stored map and the start pose read from the map flash region;
+//! - [`pose_frame`]: the pose output frame;
+//! - [`fault`]: panic and HardFault handlers.
 //!
-//! One board is compiled in ([`board`]); under QEMU it is `mps2-an386`.
+//! The benchmark, the on-target self-tests and the recorded fixtures they replay are the
+//! `firmware-testbench` crate beside this one; nothing here reaches them.
 #![no_std]
 #![warn(missing_docs)]
 
 pub mod board;
 pub mod controller;
 pub mod fault;
-pub mod instruction_loop;
-pub mod math_costs;
-pub mod pipeline;
 pub mod pose_frame;
-pub mod recorded;
-pub mod replay;
-pub mod scan_input;
-pub mod stage_stats;
-pub mod test_harness;
 
 pub use board::{Board, ExitStatus, SelectedBoard};

@@ -22,6 +22,9 @@ pub enum PoseStatus {
     OdometryOnly,
     /// No pose yet (waiting for an initial pose or the first match).
     NotInitialised,
+    /// The controller has no usable map and does not localise: flash a map and reset. The
+    /// pose fields are zero.
+    NoMap,
 }
 
 /// One pose estimate, world frame.
@@ -69,6 +72,19 @@ impl core::fmt::Display for FrameError {
 }
 
 impl PoseFrame {
+    /// The frame a controller without a map sends ([`PoseStatus::NoMap`], pose and
+    /// covariance zero).
+    pub fn no_map(sequence: u32) -> Self {
+        Self {
+            sequence,
+            x_m: 0.0,
+            y_m: 0.0,
+            theta_rad: 0.0,
+            covariance_upper: [0.0; 6],
+            status: PoseStatus::NoMap,
+        }
+    }
+
     /// Encodes the frame into `buf` (postcard + COBS + `0x00` terminator); returns the used
     /// prefix of `buf`.
     pub fn encode<'b>(&self, buf: &'b mut [u8]) -> Result<&'b mut [u8], FrameError> {

@@ -17,6 +17,7 @@ use loc_core::rng::Pcg32;
 use crate::lidar::{LidarScan, Lms511};
 use crate::metrics::{self, Metrics, Sample};
 use crate::scenario::Scenario;
+use crate::status::EstimatorStatus;
 use crate::vehicle::odometry::{Odometry, OdometrySample};
 use crate::vehicle::path_follower::PathFollower;
 use crate::vehicle::skid_steer::{SkidSteer, TrackSpeeds};
@@ -35,8 +36,8 @@ pub struct EstimatorOutput {
     pub pose: SimPose,
     /// Standard deviations `(σx m, σy m, σθ rad)` from the estimate's covariance.
     pub sigma: (f64, f64, f64),
-    /// Short status label (e.g. "landmarks", "walls-only", "rejected").
-    pub status: String,
+    /// What the estimator made of the scan.
+    pub status: EstimatorStatus,
 }
 
 /// A pose estimator fed like the one on the vehicle: odometry readings and scans in.
@@ -83,7 +84,7 @@ impl Estimator for OdometryOnly {
         EstimatorOutput {
             pose: self.pose,
             sigma: self.sigma,
-            status: "odometry".into(),
+            status: EstimatorStatus::Odometry,
         }
     }
 }
@@ -97,12 +98,12 @@ pub struct WorldSummary {
     pub width_m: f64,
     /// Landmarks in the design (stored map).
     pub landmarks_designed: usize,
-    /// Of those, missing in the true tunnel.
-    pub landmarks_missing: usize,
-    /// Of those, damaged in the true tunnel.
-    pub landmarks_damaged: usize,
-    /// Segments of the true geometry (ray-casting load).
-    pub true_segments: usize,
+    /// Of those, missing in the true tunnel (`None`: not known, as in a replay).
+    pub landmarks_missing: Option<usize>,
+    /// Of those, damaged in the true tunnel (`None`: not known).
+    pub landmarks_damaged: Option<usize>,
+    /// Segments of the true geometry (ray-casting load; `None` without a simulated world).
+    pub true_segments: Option<usize>,
 }
 
 impl WorldSummary {
@@ -113,15 +114,31 @@ impl WorldSummary {
             tunnel_length_m: world.centerline().length_m(),
             width_m: world.width_m(),
             landmarks_designed: p.len(),
-            landmarks_missing: p
-                .iter()
-                .filter(|l| l.condition == Condition::Missing)
-                .count(),
-            landmarks_damaged: p
-                .iter()
-                .filter(|l| matches!(l.condition, Condition::Damaged(_)))
-                .count(),
-            true_segments: world.grid().segments().len(),
+            landmarks_missing: Some(
+                p.iter()
+                    .filter(|l| l.condition == Condition::Missing)
+                    .count(),
+            ),
+            landmarks_damaged: Some(
+                p.iter()
+                    .filter(|l| matches!(l.condition, Condition::Damaged(_)))
+                    .count(),
+            ),
+            true_segments: Some(world.grid().segments().len()),
+        }
+    }
+
+    /// What the design alone tells (a replay: no simulated world, so nothing is known of
+    /// missing or damaged landmarks): the centre line's length, the scenario's width and the
+    /// stored map's landmarks.
+    pub fn of_design(line: &CenterLine, width_m: f64, map: &loc_core::map::TunnelMap) -> Self {
+        Self {
+            tunnel_length_m: line.length_m(),
+            width_m,
+            landmarks_designed: map.landmarks().len(),
+            landmarks_missing: None,
+            landmarks_damaged: None,
+            true_segments: None,
         }
     }
 }
@@ -139,8 +156,8 @@ pub struct RunLog {
     pub centerline: CenterLine,
     /// One sample per scan.
     pub samples: Vec<Sample>,
-    /// The estimator's status label per scan.
-    pub statuses: Vec<String>,
+    /// The estimator's status per scan.
+    pub statuses: Vec<EstimatorStatus>,
     /// The scans themselves, when asked for ([`RunOptions::keep_scans`]).
     pub scans: Vec<LidarScan>,
     /// The odometry readings, when asked for ([`RunOptions::keep_scans`]).
@@ -187,12 +204,9 @@ impl RunLog {
         }
     }
 
-    /// Number of scans whose status label is `status`.
-    pub fn status_count(&self, status: &str) -> usize {
-        self.statuses
-            .iter()
-            .filter(|s| s.as_str() == status)
-            .count()
+    /// Number of scans whose status satisfies `which` (e.g. [`EstimatorStatus::is_tracking`]).
+    pub fn status_count(&self, which: impl Fn(&EstimatorStatus) -> bool) -> usize {
+        self.statuses.iter().filter(|s| which(s)).count()
     }
 }
 
@@ -376,7 +390,10 @@ mod tests {
         // Roughly 2 % of distance along the tunnel at the end (scale error + slip).
         let end = m.odometry.final_position_error_m;
         assert!(end > 0.05 && end < 0.5, "final odometry error {end}");
-        assert_eq!(log.status_count("odometry"), m.scans);
+        assert_eq!(
+            log.status_count(|s| *s == EstimatorStatus::Odometry),
+            m.scans
+        );
     }
 
     #[test]

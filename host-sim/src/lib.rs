@@ -29,6 +29,7 @@ pub mod replay;
 pub mod report;
 pub mod scenario;
 pub mod session;
+pub mod status;
 pub mod stored_map;
 pub mod vehicle;
 pub mod visuals;

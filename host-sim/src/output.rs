@@ -127,7 +127,7 @@ impl MetricsJson {
         let choice = log.scenario.landmark_choice().ok();
         let mut status_counts = std::collections::BTreeMap::new();
         for s in &log.statuses {
-            *status_counts.entry(s.clone()).or_insert(0) += 1;
+            *status_counts.entry(s.label().to_string()).or_insert(0) += 1;
         }
         Self {
             scenario: log.scenario.name.clone(),

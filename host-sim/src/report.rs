@@ -173,7 +173,7 @@ pub fn scenario_line(log: &RunLog) -> String {
     if choice != "none" {
         let _ = write!(
             text,
-            "\nlandmarks {choice} (genes {:?}) on {}: {} designed, {} missing, {} damaged; matcher {}",
+            "\nlandmarks {choice} (genes {:?}) on {}: {} designed{}; matcher {}",
             s.landmark_choice().map(|c| c.genes()).unwrap_or_default(),
             match s.landmarks.walls {
                 crate::world::layout::WallChoice::Both => "both walls",
@@ -181,8 +181,10 @@ pub fn scenario_line(log: &RunLog) -> String {
                 crate::world::layout::WallChoice::Right => "the right wall",
             },
             w.landmarks_designed,
-            w.landmarks_missing,
-            w.landmarks_damaged,
+            match (w.landmarks_missing, w.landmarks_damaged) {
+                (Some(m), Some(d)) => format!(", {m} missing, {d} damaged"),
+                _ => String::new(),
+            },
             s.localizer.matcher.name()
         );
     } else {
@@ -200,7 +202,7 @@ pub fn scenario_line(log: &RunLog) -> String {
 pub fn status_line(log: &RunLog) -> String {
     let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
     for s in &log.statuses {
-        *counts.entry(s.as_str()).or_insert(0) += 1;
+        *counts.entry(s.label()).or_insert(0) += 1;
     }
     let parts: Vec<String> = counts
         .iter()

@@ -91,7 +91,9 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     let (m_run, m_rep) = (log.metrics(), rep.log.metrics());
     assert_same_metrics(&m_run, &m_rep);
     // The localiser did localise (the comparison is not between two failures).
-    assert!(log.status_count("tracking") > log.samples.len() / 2);
+    assert!(
+        log.status_count(host_sim::status::EstimatorStatus::is_tracking) > log.samples.len() / 2
+    );
     assert!(m_run.localizer.position_rms_m < m_run.odometry.position_rms_m);
 
     // Without the sidecar the scanner's own clock is used (offset by its power-up time):
@@ -150,7 +152,7 @@ fn replays_a_real_lms511_capture_without_ground_truth() {
     // The directory has no scanner stream of its own: the capture is given by path.
     assert!(ReplaySources::in_dir(dir.path()).is_err());
     let sources = ReplaySources {
-        scanner: capture.into(),
+        scanner: capture,
         ..placeholder(dir.path())
     };
     let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
@@ -181,4 +183,64 @@ fn placeholder(dir: &std::path::Path) -> ReplaySources {
         initial_pose: Some(dir.join(files::INITIAL_POSE)),
         ground_truth: None,
     }
+}
+
+/// A scanner at a layout the scenario does not name: the recording's telegrams start at 0°
+/// (the first 30 beams of −5°…185° cut off, as an LMS511 configured with
+/// `LMPoutputRange` 0°…185° sends) and the scenario file says nothing of it. The replay takes
+/// the telegrams' own beam angles and localises as well as the run did on the full scans.
+#[test]
+fn a_recording_at_another_start_angle_is_localised_with_its_own_beam_angles() {
+    use lidar_driver::{Dialect, Framer, ScanData, ScanRepr};
+
+    let mut s = named("paper-10m").unwrap();
+    s.seed = 3;
+    let options = RunOptions {
+        keep_scans: true,
+        progress: None,
+    };
+    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).unwrap();
+    let (_, map_file) = record::scenario_map(&s).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    record::write_recording(dir.path(), &log, &map_file).unwrap();
+
+    // Re-encode every telegram from beam 30 on: start −5° + 30 · 1/6° = 0°.
+    let path = dir.path().join(files::SCANNER);
+    let bytes = std::fs::read(&path).unwrap();
+    let mut framer = Framer::new(vec![0u8; 16 * 1024]);
+    let mut cut = Vec::new();
+    framer.feed(&bytes, |f| {
+        let scan = ScanData::new_checked(f.unwrap()).unwrap();
+        let mut repr = ScanRepr::parse(&scan);
+        let dist = &mut repr.channels16[0];
+        dist.values.drain(..30);
+        dist.start_angle_1e4_deg = 0;
+        cut.extend(repr.to_vec(Dialect::ColaB).unwrap());
+    });
+    std::fs::write(&path, cut).unwrap();
+
+    let sources = ReplaySources::in_dir(dir.path()).unwrap();
+    let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
+    assert_eq!(rep.source.scans, log.scans.len());
+    let (run, cut) = (log.metrics().localizer, rep.log.metrics().localizer);
+    eprintln!(
+        "position RMS: full scans {:.2} mm, scans from 0 deg {:.2} mm",
+        run.position_rms_m * 1e3,
+        cut.position_rms_m * 1e3
+    );
+    assert!(
+        cut.position_rms_m < 0.010 && cut.position_rms_m < 1.5 * run.position_rms_m,
+        "run {} m, replay {} m",
+        run.position_rms_m,
+        cut.position_rms_m
+    );
+    let tracking = rep
+        .log
+        .status_count(host_sim::status::EstimatorStatus::is_tracking);
+    assert!(tracking > rep.log.samples.len() / 2, "{tracking}");
+    // Read with the scenario's −5° start instead, the same beams would sit 5° off: the
+    // localiser would not find the walls where they are.
+    let first = &rep.log.scans[0];
+    assert_eq!(first.layout.start_angle_1e4_deg, 0);
+    assert_eq!(usize::from(first.layout.beams), 1111);
 }

@@ -1,7 +1,9 @@
-//! Cost of the estimation pipeline per scan: wall stripping, match-point selection,
-//! matching (Hausdorff and PL-ICP, with pre-alignment), the EKF predict + update, and the
-//! whole `Localizer::update_scan`, for one 1141-beam LMS511 scan against a 1 km straight
-//! tunnel map with P1 landmarks (test kit), σ = 10 mm range noise.
+//! Cost of the estimation pipeline per scan: each stage of `Localizer::update_scan` (wall
+//! stripping, match-point selection, matching — Hausdorff and PL-ICP, with pre-alignment —
+//! and the EKF update), timed through the localizer's own stage hook (`StageObserver`), and
+//! the whole `update_scan`, for one 1141-beam LMS511 scan against a 1 km straight tunnel map
+//! with P1 landmarks (test kit), σ = 10 mm range noise. Every figure is the code the
+//! vehicle runs, with the default configuration.
 //!
 //! The prediction is off by what one scan period of odometry drift gives (2 cm along,
 //! 1 cm across, 0.2°): the steady tracking case.
@@ -13,21 +15,18 @@
 //! 0.58 µs; end to end 75.8 µs (Hausdorff) / 65.9 µs (ICP). (2026-11-22, before the M4F
 //! work of the next commits and under load ≈ 5: end to end 174 / 128 µs.)
 
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use loc_core::filter::{Ekf, OdometryIncrement, OdometryNoise, UpdateConfig};
 use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
-use loc_core::localizer::{Localizer, LocalizerConfig};
+use loc_core::localizer::{Localizer, LocalizerConfig, Stage, StageObserver};
 use loc_core::map::TunnelMap;
-use loc_core::matching::{
-    match_scan_with_prealign, select_match_points, MatchConfig, MatchPoints, MatchWorkspace,
-    MatcherKind, PrealignConfig,
-};
+use loc_core::matching::{MatchConfig, MatcherKind};
 use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
-use loc_core::strip::{strip_walls, PointLabel, StripConfig};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 use nalgebra::{Matrix3, Vector3};
-use std::hint::black_box;
 
 struct Fixture {
     map: Box<TunnelMap>,
@@ -62,9 +61,6 @@ fn fixture() -> Fixture {
     }
 }
 
-/// Position standard deviation of the prediction, metres (as in [`prior`]).
-const PRIOR_SD_M: f32 = 0.036;
-
 fn prior() -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(
         0.03f32.powi(2),
@@ -73,105 +69,29 @@ fn prior() -> Matrix3<f32> {
     ))
 }
 
-fn stages(c: &mut Criterion) {
-    let f = fixture();
-    let points = f.scan.points();
-    let strip_cfg = StripConfig::default();
-    let mut labels = vec![PointLabel::Outlier; points.len()];
+/// Times one stage of `Localizer::update_scan_observed`: the very chain the vehicle runs.
+struct StageClock {
+    stage: Stage,
+    started: Option<Instant>,
+    elapsed: Duration,
+}
 
-    c.bench_function("strip_1141", |b| {
-        b.iter(|| strip_walls(black_box(points), &strip_cfg, &mut labels))
-    });
-    let strip = strip_walls(points, &strip_cfg, &mut labels);
-
-    let mut selected = MatchPoints::new();
-    c.bench_function("select_match_points", |b| {
-        b.iter(|| {
-            select_match_points(
-                black_box(points),
-                &labels,
-                100,
-                f32::INFINITY,
-                &mut selected,
-            )
-        })
-    });
-    let counts = select_match_points(points, &labels, 100, f32::INFINITY, &mut selected);
-    eprintln!("strip {:?}; selected {:?}", strip.counts, counts);
-
-    let mut ws = Box::new(MatchWorkspace::new());
-    for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
-        let cfg = MatchConfig {
-            matcher,
-            ..MatchConfig::default()
-        };
-        let r = match_scan_with_prealign(
-            &*f.map,
-            points,
-            &labels,
-            &strip,
-            &selected,
-            f.predicted,
-            PRIOR_SD_M,
-            &PrealignConfig::default(),
-            &cfg,
-            &mut ws,
-        )
-        .expect("match");
-        eprintln!(
-            "{matcher:?}: {} iterations, error {:.1} mm",
-            r.result.iterations,
-            1000.0 * r.result.pose.translation().dist(f.truth.translation())
-        );
-        c.bench_function(&format!("match_{matcher:?}").to_lowercase(), |b| {
-            b.iter(|| {
-                match_scan_with_prealign(
-                    &*f.map,
-                    points,
-                    &labels,
-                    &strip,
-                    black_box(&selected),
-                    f.predicted,
-                    PRIOR_SD_M,
-                    &PrealignConfig::default(),
-                    &cfg,
-                    &mut ws,
-                )
-            })
-        });
+impl StageObserver for StageClock {
+    fn begin(&mut self, stage: Stage) {
+        if stage == self.stage {
+            self.started = Some(Instant::now());
+        }
     }
 
-    let cfg = MatchConfig::default();
-    let result = match_scan_with_prealign(
-        &*f.map,
-        points,
-        &labels,
-        &strip,
-        &selected,
-        f.predicted,
-        PRIOR_SD_M,
-        &PrealignConfig::default(),
-        &cfg,
-        &mut ws,
-    )
-    .expect("match")
-    .result;
-    let update = UpdateConfig::for_matcher(&cfg);
-    let noise = OdometryNoise::default();
-    let step = OdometryIncrement {
-        dx_m: 0.5,
-        dy_m: 0.0,
-        dtheta_rad: 0.001,
-    };
-    let start = Ekf::new(f.predicted, prior()).expect("valid prior");
-    c.bench_function("filter_predict_update", |b| {
-        b.iter(|| {
-            let mut ekf = start;
-            let _ = ekf.predict(black_box(&step), &noise);
-            ekf.update_with_match(black_box(&result), &update)
-        })
-    });
+    fn end(&mut self, stage: Stage) {
+        if let (true, Some(t0)) = (stage == self.stage, self.started.take()) {
+            self.elapsed += t0.elapsed();
+        }
+    }
+}
 
+fn stages(c: &mut Criterion) {
+    let f = fixture();
     for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
         let config = LocalizerConfig {
             matching: MatchConfig {
@@ -180,9 +100,41 @@ fn stages(c: &mut Criterion) {
             },
             ..LocalizerConfig::default()
         };
-        c.bench_function(&format!("end_to_end_{matcher:?}").to_lowercase(), |b| {
+        let fresh =
+            || Box::new(Localizer::new(&*f.map, config, f.predicted, prior()).expect("init"));
+        let mut probe = fresh();
+        let status = probe.update_scan(&f.scan);
+        let m = probe.last_match().expect("the scan matches");
+        eprintln!(
+            "{matcher:?}: {status}; {} iterations, error {:.1} mm; strip {:?}",
+            m.iterations,
+            1000.0 * m.pose.translation().dist(f.truth.translation()),
+            probe.last_strip().map(|s| s.counts)
+        );
+        let name = format!("{matcher:?}").to_lowercase();
+        for stage in Stage::ALL {
+            // Strip and select do not depend on the matcher: timed once.
+            if matcher == MatcherKind::Icp && matches!(stage, Stage::Strip | Stage::Select) {
+                continue;
+            }
+            c.bench_function(&format!("{}_{name}", stage.name()), |b| {
+                b.iter_custom(|iters| {
+                    let mut clock = StageClock {
+                        stage,
+                        started: None,
+                        elapsed: Duration::ZERO,
+                    };
+                    for _ in 0..iters {
+                        let mut loc = fresh();
+                        black_box(loc.update_scan_observed(black_box(&f.scan), &mut clock));
+                    }
+                    clock.elapsed
+                })
+            });
+        }
+        c.bench_function(&format!("end_to_end_{name}"), |b| {
             b.iter_batched_ref(
-                || Box::new(Localizer::new(&*f.map, config, f.predicted, prior()).expect("init")),
+                fresh,
                 |loc| loc.update_scan(black_box(&f.scan)),
                 BatchSize::SmallInput,
             )

@@ -24,7 +24,7 @@ fn run(damage: Option<DamageKindConfig>) -> (Metrics, usize) {
         s.landmarks.damage = kind;
     }
     let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).expect("run");
-    (log.metrics(), log.world.landmarks_damaged)
+    (log.metrics(), log.world.landmarks_damaged.unwrap_or(0))
 }
 
 #[test]

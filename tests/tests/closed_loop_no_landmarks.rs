@@ -47,7 +47,7 @@ fn assert_bare_tunnel_behaviour(log: &RunLog) {
         a.position_rms_m,
         m.odometry.position_rms_m
     );
-    let tracking = log.status_count("tracking");
+    let tracking = log.status_count(host_sim::status::EstimatorStatus::is_tracking);
     assert!(
         tracking * 10 < log.samples.len(),
         "{tracking} scans claimed full tracking"

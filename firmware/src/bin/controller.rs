@@ -46,25 +46,31 @@ fn main() -> ! {
     ) else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
-    let (source, pose, cov) = match controller::load_map(board.map_region(), map) {
-        Ok(loaded) => loaded,
-        Err(e) => {
-            defmt::error!("stored map unusable: {}", defmt::Display2Format(&e));
-            SelectedBoard::exit(ExitStatus::Failure)
-        }
+    let region = board.map_region();
+    let start =
+        controller::load_map(region, map).and_then(|()| controller::start_pose(region, map));
+    let (source, start, record_error) = match start {
+        Ok(s) => s,
+        Err(e) => controller::wait_without_map(&mut board, &e),
     };
+    if let Some(e) = record_error {
+        defmt::warn!(
+            "start pose record unusable ({}): starting at the tunnel entrance",
+            defmt::Display2Format(&e)
+        );
+    }
     let map: &'static TunnelMap = map;
     defmt::println!(
-        "controller on {=str}: map from {} ({=usize} landmarks), start ({=f32}, {=f32}, {=f32})",
+        "controller on {=str}: map of {=usize} landmarks; start ({=f32}, {=f32}, {=f32}) from {}",
         SelectedBoard::NAME,
-        source,
         map.landmarks().len(),
-        pose.x_m,
-        pose.y_m,
-        pose.theta_rad
+        start.pose.x_m,
+        start.pose.y_m,
+        start.pose.theta_rad,
+        source
     );
-    let Some(controller) = Controller::new(map, pose, cov) else {
-        defmt::error!("initial covariance rejected by the filter");
+    let Some(controller) = Controller::new(map, &start) else {
+        defmt::error!("start covariance rejected by the filter");
         SelectedBoard::exit(ExitStatus::Failure)
     };
     let controller = slot.insert(controller);

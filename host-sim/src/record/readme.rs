@@ -4,7 +4,7 @@
 use crate::closed_loop::RunLog;
 
 use super::files;
-use super::scanner_telegram::{measurement_frequency_100hz, SIMULATED_SERIAL};
+use super::scanner_telegram::SIMULATED_SERIAL;
 
 /// The README text of a recording of `log` (`stream_bytes`: size of the scanner stream;
 /// `map_bytes`: size of the map file).
@@ -28,7 +28,8 @@ world frame of the map (x, y in metres; headings in radians, counter-clockwise, 
     Header: version 0, device number 1, serial {serial}, device status 01 00 on the first
     telegram then 00 00, telegram counter from 1, scan counter and time since start-up (us)
     counted from power-up {power_up} s before the run, time block from 2026-01-01 00:00:00.
-    One 16-bit DIST1 channel (scale 1, offset 0): range in mm per beam, 0 = no echo. No RSSI
+    One 16-bit DIST1 channel: range in mm = value x scale factor (1; 2 in a scan with an echo
+    beyond 65.534 m), 0 = no echo. No RSSI
     channel (remission output off). Decode it with `sick-dump {scanner}` (lidar-driver).
 
 {times}
@@ -82,7 +83,7 @@ initial_pose.csv and scenario.toml; ground_truth.csv is optional (metrics need i
         freq = rate.frequency_hz(),
         step = rate.step_1e4_deg(),
         beams = rate.beam_count(),
-        meas = measurement_frequency_100hz(rate),
+        meas = rate.measurement_frequency_100hz(),
         serial = SIMULATED_SERIAL,
         power_up = super::scanner_telegram::POWER_UP_BEFORE_RUN_S,
         odo_hz = s.odometry.rate_hz,

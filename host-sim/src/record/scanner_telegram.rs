@@ -8,8 +8,9 @@
 //! time of transmission one scan period plus 0.85 ms later (the capture shows 40.85 ms at
 //! 25 Hz), the frequency pair of the scan rate (scan frequency in 1/100 Hz; shot frequency
 //! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, one
-//! 16-bit `DIST1` channel (scale 1, offset 0, start −5° = −50000, step in 1/10000°, one
-//! `u16` millimetre range per beam, 0 = no echo), and the time block of the scanner's clock.
+//! 16-bit `DIST1` channel (the scan's layout and scale: start −5° = −50000, step in
+//! 1/10000°, one raw value per beam, 0 = no echo; scale 1 mm, or 2 mm for a scan with an
+//! echo beyond 65.534 m), and the time block of the scanner's clock.
 //! No `RSSI1` channel: the simulator has no remission model, so the simulated scanner is set
 //! up with remission output off (`LMDscandatacfg` remission flag 0), which a real LMS511
 //! accepts.
@@ -17,7 +18,7 @@
 use lidar_driver::scandata::TimeBlock;
 use lidar_driver::{ChannelRepr, CommandType, Dialect, EmitError, ScanHeader, ScanRepr};
 
-use crate::lidar::{LidarScan, ScanRate, FIRST_BEAM_1E4_DEG};
+use crate::lidar::{LidarScan, ScanRate};
 
 /// Serial number of the simulated scanner (the telegram's serial field).
 pub const SIMULATED_SERIAL: u32 = 99_000_511;
@@ -31,11 +32,6 @@ const TRANSMISSION_LAG_US: u32 = 850;
 /// The scanner's real-time clock at the start of the run: 2026-01-01 00:00:00 (the time
 /// block; nothing in the localiser reads it).
 pub const CLOCK_AT_RUN_START: (u16, u8, u8) = (2026, 1, 1);
-
-/// Shot (measurement) frequency of a scan rate, 100 Hz units: `f · 360° / step`.
-pub fn measurement_frequency_100hz(rate: ScanRate) -> u32 {
-    (rate.frequency_hz() * 360.0 / rate.step_deg() / 100.0).round() as u32
-}
 
 /// Turns simulated scans into the telegrams the LMS511 would stream for them.
 #[derive(Debug, Clone)]
@@ -80,16 +76,16 @@ impl Lms511Telegrams {
             input_status: [0, 0],
             output_status: [0, 0],
             reserved_layer_angle: 0,
-            scan_frequency_1e2_hz: (f * 100.0).round() as u32,
-            measurement_frequency_100hz: measurement_frequency_100hz(self.rate),
+            scan_frequency_1e2_hz: scan.layout.scan_frequency_1e2_hz,
+            measurement_frequency_100hz: scan.layout.measurement_frequency_100hz,
         };
         let dist1 = ChannelRepr {
             name: *b"DIST1",
-            scale_factor: 1.0,
-            scale_offset: 0.0,
-            start_angle_1e4_deg: FIRST_BEAM_1E4_DEG,
-            step_1e4_deg: self.rate.step_1e4_deg() as u16,
-            values: scan.ranges_mm.clone(),
+            scale_factor: scan.scale_factor,
+            scale_offset: scan.scale_offset_mm,
+            start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
+            step_1e4_deg: scan.layout.step_1e4_deg,
+            values: scan.dist1.clone(),
         };
         ScanRepr {
             command_type: CommandType::Event,
@@ -163,9 +159,10 @@ mod tests {
     fn scan(t_s: f64, rate: ScanRate) -> LidarScan {
         LidarScan {
             t_s,
-            ranges_mm: (0..rate.beam_count()).map(|i| (1000 + i) as u16).collect(),
-            start_angle_rad: crate::lidar::first_beam_angle_rad(),
-            step_rad: rate.step_rad(),
+            dist1: (0..rate.beam_count()).map(|i| (1000 + i) as u16).collect(),
+            scale_factor: 1.0,
+            scale_offset_mm: 0.0,
+            layout: rate.layout(),
         }
     }
 
@@ -241,7 +238,7 @@ mod tests {
             });
             assert_eq!(decoded.len(), 3);
             for (k, (d, s)) in decoded.iter().zip(&scans).enumerate() {
-                assert_eq!(d.channels16[0].values, s.ranges_mm);
+                assert_eq!(d.channels16[0].values, s.dist1);
                 assert_eq!(d.channels16[0].step_1e4_deg as u32, rate.step_1e4_deg());
                 assert_eq!(d.header.device_status, if k == 0 { [1, 0] } else { [0, 0] });
                 assert_eq!(d.header.telegram_counter as usize, k + 1);
@@ -252,9 +249,9 @@ mod tests {
             let sc: Vec<u16> = decoded.iter().map(|d| d.header.scan_counter).collect();
             assert_eq!((sc[1] - sc[0], sc[2] - sc[1]), (1, 1));
         }
-        assert_eq!(measurement_frequency_100hz(ScanRate::Hz25), 540);
-        assert_eq!(measurement_frequency_100hz(ScanRate::Hz35), 504);
-        assert_eq!(measurement_frequency_100hz(ScanRate::Hz100), 540);
+        assert_eq!(ScanRate::Hz25.measurement_frequency_100hz(), 540);
+        assert_eq!(ScanRate::Hz35.measurement_frequency_100hz(), 504);
+        assert_eq!(ScanRate::Hz100.measurement_frequency_100hz(), 540);
     }
 
     #[test]

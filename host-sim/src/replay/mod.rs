@@ -26,6 +26,7 @@ use crate::record::initial_pose::{self, InitialPose};
 use crate::record::{files, odometry_csv, truth_csv};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::session::EstimatorChoice;
+use crate::status::EstimatorStatus;
 use crate::vehicle::SimPose;
 
 use scan_source::{RecordedScans, ScanSourceError};
@@ -186,8 +187,8 @@ pub struct ReplayStep {
     pub estimate: SimPose,
     /// `(σx m, σy m, σθ rad)` of the estimate.
     pub sigma: (f64, f64, f64),
-    /// Status label.
-    pub status: String,
+    /// What the estimator made of the scan.
+    pub status: EstimatorStatus,
     /// Dead reckoning from the odometry log alone at the scan.
     pub odometry: SimPose,
     /// Time the estimator took for the scan, microseconds.
@@ -249,7 +250,8 @@ pub struct ScanSummary {
 pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay, ReplayError> {
     let wall = Instant::now();
     let scenario = Scenario::from_file(&sources.scenario)?;
-    let world = scenario.build_world()?;
+    // The centre line alone (for the along/across split): no simulated world is built.
+    let line = scenario.centerline()?;
     let map_bytes = std::fs::read(&sources.map).map_err(|source| ReplayError::Io {
         path: sources.map.clone(),
         source,
@@ -260,11 +262,7 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
             path: sources.map.clone(),
             source,
         })?;
-    let recorded = scan_source::read_scans(
-        &sources.scanner,
-        sources.scanner_times.as_deref(),
-        &scenario.lidar,
-    )?;
+    let recorded = scan_source::read_scans(&sources.scanner, sources.scanner_times.as_deref())?;
     let odometry = odometry_csv::read(&sources.odometry)?;
     let warnings: Vec<String> = clock_warning(&odometry, &recorded.scans)
         .into_iter()
@@ -305,14 +303,13 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
             (steps, est.name())
         }
     };
-    let line = world.centerline().clone();
     let scored = match &truth {
         Some(rows) => truth::samples(&steps, rows, &line, scenario.drive.start_m),
         None => Vec::new(),
     };
     let statuses = scored
         .iter()
-        .filter_map(|(i, _)| steps.get(*i).map(|x| x.status.clone()))
+        .filter_map(|(i, _)| steps.get(*i).map(|x| x.status))
         .collect();
     // The scored scans stay with their samples (for the MCAP file).
     let scans = scored
@@ -329,10 +326,11 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         other_frames: recorded.other_frames,
         bad_frames: recorded.bad_frames,
     };
+    let world = WorldSummary::of_design(&line, scenario.tunnel.width_m, &map);
     let log = RunLog {
         scenario,
         estimator: name,
-        world: WorldSummary::of(&world),
+        world,
         centerline: line,
         samples,
         statuses,

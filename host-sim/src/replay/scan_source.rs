@@ -1,6 +1,8 @@
-//! Scans of a recorded scanner stream, decoded through lidar-driver and turned into the
-//! simulator's [`LidarScan`] exactly as a live run makes them (the same `u16` millimetre
-//! ranges, the same beam layout), with their times.
+//! Scans of a recorded scanner stream, decoded through lidar-driver into the simulator's
+//! [`LidarScan`]: each telegram's own `DIST1` values, scale and beam layout
+//! ([`scan_input::BeamLayout`]: start angle, step, exact step from the frequencies), so a
+//! scanner at any layout is replayed with its own beam angles, and a simulated run's
+//! telegrams give back exactly the scans the live run localised on. With their times.
 //!
 //! The stream may be raw CoLa-B or CoLa-A bytes, pcap/pcapng, or SICK's `.pcapng.json`
 //! (lidar-driver's [`Recording`] detects which). Scan times come from, in this order:
@@ -18,7 +20,9 @@ use std::path::{Path, PathBuf};
 use lidar_driver::recording::{Direction, Recording, RecordingError, RecordingFormat};
 use lidar_driver::ScanData;
 
-use crate::lidar::{first_beam_angle_rad, LidarScan, LidarSpec, FIRST_BEAM_1E4_DEG};
+use scan_input::BeamLayout;
+
+use crate::lidar::LidarScan;
 use crate::record::csv_table::{cell, CsvError, CsvTable};
 
 /// Where the scan times came from.
@@ -69,14 +73,12 @@ pub enum ScanSourceError {
         /// Index of the scan.
         index: usize,
     },
-    /// A scan's beam layout differs from the sensor the scenario describes.
-    Layout {
+    /// A scan has more beams than the localiser's scan holds.
+    TooManyBeams {
         /// Index of the scan.
         index: usize,
-        /// `(start 1/10000°, step 1/10000°, beams)` in the telegram.
-        found: (i32, u32, usize),
-        /// What the scenario's LMS511 rate gives.
-        expected: (i32, u32, usize),
+        /// Beams in the telegram.
+        beams: usize,
     },
     /// The recording holds no scans.
     NoScans {
@@ -107,14 +109,10 @@ impl fmt::Display for ScanSourceError {
                 f,
                 "scan telegram {index} has no DIST1 channel (configure the scanner's output with LMDscandatacfg: first echo)"
             ),
-            ScanSourceError::Layout {
-                index,
-                found,
-                expected,
-            } => write!(
+            ScanSourceError::TooManyBeams { index, beams } => write!(
                 f,
-                "scan {index} covers start {} / step {} (1/10000 deg) with {} beams, but the scenario's LMS511 gives {} / {} with {}: set [lidar] rate in the scenario to the scanner's frequency, or the scanner to -5..185 deg",
-                found.0, found.1, found.2, expected.0, expected.1, expected.2
+                "scan telegram {index} has {beams} beams, more than the {} a loc-core scan holds: configure the scanner for 0.1667 deg over 190 deg or coarser",
+                loc_core::scan::LMS511_MAX_BEAMS
             ),
             ScanSourceError::NoScans { path } => {
                 write!(f, "{} holds no LMDscandata telegram", path.display())
@@ -130,34 +128,13 @@ impl fmt::Display for ScanSourceError {
 
 impl std::error::Error for ScanSourceError {}
 
-/// Millimetres of a raw DIST value with the channel's scale (clamped to the `u16` the
-/// simulator's scans hold: ranges past 65.535 m read as 65.535 m).
-fn to_mm(raw: u16, scale: f32, offset: f32) -> u16 {
-    if scale == 1.0 && offset == 0.0 {
-        return raw;
-    }
-    let mm = f64::from(raw) * f64::from(scale) + f64::from(offset);
-    if raw == 0 || !mm.is_finite() || mm <= 0.0 {
-        0
-    } else {
-        mm.round().min(f64::from(u16::MAX)) as u16
-    }
-}
-
-/// Reads the scans of `path` for a sensor described by `lidar`; `sidecar` is the optional
-/// times CSV.
-pub fn read_scans(
-    path: &Path,
-    sidecar: Option<&Path>,
-    lidar: &LidarSpec,
-) -> Result<RecordedScans, ScanSourceError> {
+/// Reads the scans of `path`; `sidecar` is the optional times CSV.
+pub fn read_scans(path: &Path, sidecar: Option<&Path>) -> Result<RecordedScans, ScanSourceError> {
     let rec = Recording::read_file(path).map_err(|source| ScanSourceError::Recording {
         path: path.to_path_buf(),
         source,
     })?;
     let frames = rec.frames();
-    let rate = lidar.rate;
-    let expected = (FIRST_BEAM_1E4_DEG, rate.step_1e4_deg(), rate.beam_count());
     let mut scans = Vec::new();
     let mut capture_times = Vec::new();
     let mut clock_us = Vec::new();
@@ -183,23 +160,18 @@ pub fn read_scans(
         };
         let dist = scan.dist1().ok_or(ScanSourceError::NoDistances { index })?;
         let h = dist.header;
-        let found = (h.start_angle_1e4_deg, u32::from(h.step_1e4_deg), dist.len());
-        if found != expected {
-            return Err(ScanSourceError::Layout {
+        if dist.len() > loc_core::scan::LMS511_MAX_BEAMS {
+            return Err(ScanSourceError::TooManyBeams {
                 index,
-                found,
-                expected,
+                beams: dist.len(),
             });
         }
-        let ranges_mm = dist
-            .values()
-            .map(|v| to_mm(v, h.scale_factor, h.scale_offset))
-            .collect();
         scans.push(LidarScan {
             t_s: 0.0,
-            ranges_mm,
-            start_angle_rad: first_beam_angle_rad(),
-            step_rad: rate.step_rad(),
+            dist1: dist.values().collect(),
+            scale_factor: h.scale_factor,
+            scale_offset_mm: h.scale_offset,
+            layout: BeamLayout::of(&scan.header, &h),
         });
         capture_times.push(f.time_s);
         clock_us.push(scan.header.time_since_startup_us);
@@ -252,49 +224,38 @@ pub fn read_scans(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lidar::ScanRate;
 
     #[test]
     fn real_lms511_capture_decodes_in_both_formats_with_their_clocks() {
-        let spec = LidarSpec::default();
-        let raw = read_scans(&sick_captures::path(sick_captures::LMS511_S2H), None, &spec).unwrap();
-        let json = read_scans(
-            &sick_captures::path(sick_captures::LMS511_JSON),
-            None,
-            &spec,
-        )
-        .unwrap();
+        let raw = read_scans(&sick_captures::path(sick_captures::LMS511_S2H), None).unwrap();
+        let json = read_scans(&sick_captures::path(sick_captures::LMS511_JSON), None).unwrap();
         assert_eq!(raw.scans.len(), 174);
         assert_eq!(json.scans.len(), 174);
         assert_eq!(raw.time_source, TimeSource::ScannerClock);
         assert_eq!(json.time_source, TimeSource::Capture);
-        assert_eq!(raw.scans[0].ranges_mm[..3], [1305, 1299, 1307]);
+        assert_eq!(raw.scans[0].dist1[..3], [1305, 1299, 1307]);
         for (a, b) in raw.scans.iter().zip(&json.scans) {
-            assert_eq!(a.ranges_mm, b.ranges_mm);
+            assert_eq!((&a.dist1, a.layout), (&b.dist1, b.layout));
         }
         // 25 Hz on the scanner's clock.
         let dt = raw.scans[1].t_s - raw.scans[0].t_s;
         assert!((dt - 0.04).abs() < 0.002, "{dt}");
-        // The wrong rate in the scenario is named, not misread.
-        let wrong = LidarSpec {
-            rate: ScanRate::Hz50,
-            ..spec
-        };
-        let e = read_scans(
-            &sick_captures::path(sick_captures::LMS511_S2H),
-            None,
-            &wrong,
-        )
-        .unwrap_err();
-        assert!(matches!(e, ScanSourceError::Layout { index: 0, .. }), "{e}");
-        assert!(e.to_string().contains("rate"));
+        // The telegram's own layout, with the exact 1/6° step.
+        let l = raw.scans[0].layout;
+        assert_eq!(
+            (l.start_angle_1e4_deg, l.step_1e4_deg, l.beams),
+            (-50_000, 1667, 1141)
+        );
+        assert!((l.step_used_1e4_deg() - 10_000.0 / 6.0).abs() < 1e-9);
     }
 
     #[test]
-    fn scale_factor_two_and_no_echo() {
-        assert_eq!(to_mm(1234, 1.0, 0.0), 1234);
-        assert_eq!(to_mm(1234, 2.0, 0.0), 2468);
-        assert_eq!(to_mm(0, 2.0, 0.0), 0);
-        assert_eq!(to_mm(40_000, 2.0, 0.0), u16::MAX);
+    fn the_lms111_is_read_at_its_own_layout() {
+        let s = read_scans(&sick_captures::path(sick_captures::LMS111_S2H), None).unwrap();
+        let l = s.scans[0].layout;
+        assert_eq!(
+            (l.start_angle_1e4_deg, l.step_1e4_deg, l.beams),
+            (-450_000, 5000, 541)
+        );
     }
 }

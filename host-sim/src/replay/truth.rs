@@ -125,7 +125,7 @@ mod tests {
             t_s: t,
             estimate: SimPose::default(),
             sigma: (0.0, 0.0, 0.0),
-            status: "x".into(),
+            status: crate::status::EstimatorStatus::Odometry,
             odometry: SimPose::default(),
             update_us: 0.0,
         }

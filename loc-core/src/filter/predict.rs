@@ -42,25 +42,33 @@ impl OdometryIncrement {
     }
 }
 
-/// Odometry noise proportional to the motion (a skid-steer loader drifts 1–5 % of the
-/// distance travelled). Standard deviations of one increment, vehicle frame:
-/// - forward: `along_fraction · d + min_translation_sd_m`,
-/// - sideways: `across_fraction · d + min_translation_sd_m`,
-/// - heading: `heading_fraction · |dθ| + heading_per_m_rad · d + min_heading_sd_rad`.
+/// Odometry noise as a random walk in the distance travelled: the variance of a stretch of
+/// odometry grows with its length, whatever the odometry rate. (A model proportional to each
+/// increment's own length would shrink with the rate — at 100 Hz a tenth of its 10 Hz
+/// variance over the same metre — and make the filter overconfident; `host-sim` measured
+/// that.) Variances of one increment of length `d`, turn `dθ`, vehicle frame:
+/// - forward: `f² · L · d` (so `f · L` of 1σ after driving `L`),
+/// - sideways: `(a · f)² · L · d`,
+/// - heading: `h² · L · d + (k · dθ)²`,
+///
+/// each plus a floor (`min_translation_var_m2`, `min_heading_var_rad2`). A skid-steer loader
+/// drifts 1–5 % of the distance travelled: the default `f = 3 %` over `L = 10 m`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OdometryNoise {
-    /// Forward sd per metre travelled (dimensionless).
-    pub along_fraction: f32,
-    /// Sideways sd per metre travelled (skid-steer slip).
-    pub across_fraction: f32,
-    /// Heading sd per radian turned.
+    /// `f`: forward 1σ as a fraction of `drift_length_m` driven (dimensionless).
+    pub drift_fraction: f32,
+    /// `L`: the distance over which `drift_fraction` holds, metres.
+    pub drift_length_m: f32,
+    /// `a`: sideways 1σ as a fraction of the forward one (skid-steer side slip).
+    pub across_to_along: f32,
+    /// `h`: heading 1σ per metre of `drift_length_m`, rad/m.
+    pub heading_drift_rad_per_m: f32,
+    /// `k`: heading 1σ per radian turned.
     pub heading_fraction: f32,
-    /// Heading sd per metre travelled, rad/m.
-    pub heading_per_m_rad: f32,
-    /// Translation sd added to every increment, metres.
-    pub min_translation_sd_m: f32,
-    /// Heading sd added to every increment, radians.
-    pub min_heading_sd_rad: f32,
+    /// Variance added to each translation component of every increment, m².
+    pub min_translation_var_m2: f32,
+    /// Variance added to the heading of every increment, rad².
+    pub min_heading_var_rad2: f32,
     /// Increments longer than this are rejected, metres (a scan period at 40 km/h is 0.5 m).
     pub max_step_m: f32,
     /// Increments turning more than this are rejected, radians.
@@ -68,14 +76,17 @@ pub struct OdometryNoise {
 }
 
 impl Default for OdometryNoise {
+    /// 3 % over 10 m forward, a third of that sideways, 0.005 rad/m and 5 % of each turn in
+    /// heading.
     fn default() -> Self {
         Self {
-            along_fraction: 0.03,
-            across_fraction: 0.01,
+            drift_fraction: 0.03,
+            drift_length_m: 10.0,
+            across_to_along: 1.0 / 3.0,
+            heading_drift_rad_per_m: 0.005,
             heading_fraction: 0.05,
-            heading_per_m_rad: 0.005,
-            min_translation_sd_m: 1.0e-4,
-            min_heading_sd_rad: 1.0e-5,
+            min_translation_var_m2: 1.0e-10,
+            min_heading_var_rad2: 1.0e-12,
             max_step_m: 5.0,
             max_turn_rad: 1.0,
         }
@@ -85,16 +96,16 @@ impl Default for OdometryNoise {
 impl OdometryNoise {
     /// The covariance of `increment` under this model, vehicle frame.
     pub fn covariance(&self, increment: &OdometryIncrement) -> Matrix3<f32> {
-        let d = increment.distance_m();
-        let sd_along = self.along_fraction * d + self.min_translation_sd_m;
-        let sd_across = self.across_fraction * d + self.min_translation_sd_m;
-        let sd_heading = self.heading_fraction * math::abs(increment.dtheta_rad)
-            + self.heading_per_m_rad * d
-            + self.min_heading_sd_rad;
+        let walk_m = self.drift_length_m * increment.distance_m();
+        let along = self.drift_fraction * self.drift_fraction * walk_m;
+        let across = along * self.across_to_along * self.across_to_along;
+        let turn = self.heading_fraction * increment.dtheta_rad;
+        let heading =
+            self.heading_drift_rad_per_m * self.heading_drift_rad_per_m * walk_m + turn * turn;
         Matrix3::from_diagonal(&nalgebra::Vector3::new(
-            sd_along * sd_along,
-            sd_across * sd_across,
-            sd_heading * sd_heading,
+            along + self.min_translation_var_m2,
+            across + self.min_translation_var_m2,
+            heading + self.min_heading_var_rad2,
         ))
     }
 }

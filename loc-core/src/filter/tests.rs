@@ -5,6 +5,11 @@ fn diag(a: f32, b: f32, c: f32) -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(a, b, c))
 }
 
+/// The default matcher's observability criterion.
+fn obs() -> crate::matching::Observability {
+    crate::matching::MatchConfig::default().observability()
+}
+
 #[test]
 fn rejects_bad_initialisation() {
     assert_eq!(
@@ -67,6 +72,7 @@ fn update_leaves_unobserved_direction_to_odometry() {
             Pose2::new(10.0, 0.0, 0.0),
             &info,
             None,
+            &obs(),
             &UpdateConfig::default(),
         )
         .unwrap();
@@ -85,13 +91,15 @@ fn full_update_and_gate() {
     let mut ekf = Ekf::new(Pose2::new(0.05, 0.0, 0.0), diag(0.01, 0.01, 1e-3)).unwrap();
     let info = diag(1e6, 1e6, 1e7);
     let cfg = UpdateConfig::default();
-    let r = ekf.update(Pose2::IDENTITY, &info, None, &cfg).unwrap();
+    let r = ekf
+        .update(Pose2::IDENTITY, &info, None, &obs(), &cfg)
+        .unwrap();
     assert_eq!(r.observed_directions, 3);
     assert!(ekf.pose().x_m.abs() < 2e-3);
     // A match 2 m away with a tight prior fails the gate and changes nothing.
     let before = ekf;
     let e = ekf
-        .update(Pose2::new(2.0, 0.0, 0.0), &info, None, &cfg)
+        .update(Pose2::new(2.0, 0.0, 0.0), &info, None, &obs(), &cfg)
         .unwrap_err();
     assert!(
         matches!(e, UpdateRejection::FailedGate { dof: 3, .. }),
@@ -99,11 +107,17 @@ fn full_update_and_gate() {
     );
     assert_eq!(ekf, before);
     assert_eq!(
-        ekf.update(Pose2::IDENTITY, &Matrix3::zeros(), None, &cfg),
+        ekf.update(Pose2::IDENTITY, &Matrix3::zeros(), None, &obs(), &cfg),
         Err(UpdateRejection::NothingObserved)
     );
     assert_eq!(
-        ekf.update(Pose2::new(f32::INFINITY, 0.0, 0.0), &info, None, &cfg),
+        ekf.update(
+            Pose2::new(f32::INFINITY, 0.0, 0.0),
+            &info,
+            None,
+            &obs(),
+            &cfg
+        ),
         Err(UpdateRejection::NonFinite)
     );
 }
@@ -139,6 +153,7 @@ fn projected_gain_holds_along_position_despite_correlation() {
         Pose2::new(10.0, 0.0, 0.0),
         &info,
         None,
+        &obs(),
         &UpdateConfig::default(),
     )
     .unwrap();
@@ -148,6 +163,7 @@ fn projected_gain_holds_along_position_despite_correlation() {
         Pose2::new(10.0, 0.0, 0.0),
         &info,
         Some(Point2::new(1.0, 0.0)),
+        &obs(),
         &UpdateConfig::default(),
     )
     .unwrap();

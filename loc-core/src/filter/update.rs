@@ -14,7 +14,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::Ekf;
 use crate::geometry::{Point2, Pose2};
-use crate::matching::{observable_subspace, MatchConfig, MatchResult};
+use crate::matching::{MatchResult, Observability};
 use crate::math;
 
 /// The gate's false-rejection probability.
@@ -46,14 +46,10 @@ impl GateProbability {
     }
 }
 
-/// Tuning of the match update.
+/// Tuning of the match update. Which directions a match observes is the matcher's
+/// judgement ([`MatchResult::observability`]), not a setting of the update.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UpdateConfig {
-    /// A direction is observed when its (scaled) information is at least this, m⁻². Use the
-    /// matcher's [`MatchConfig::min_information_per_m2`].
-    pub min_information_per_m2: f32,
-    /// `L`, metres: the same as the matcher's `rotation_scale_m`.
-    pub rotation_scale_m: f32,
     /// Chi-square gate.
     pub gate: GateProbability,
     /// Standard deviation added to each observed direction of the match, metres (scaled
@@ -62,21 +58,13 @@ pub struct UpdateConfig {
     pub min_measurement_sd_m: f32,
 }
 
-impl UpdateConfig {
-    /// The update that goes with a matcher configuration.
-    pub fn for_matcher(config: &MatchConfig) -> Self {
+impl Default for UpdateConfig {
+    /// Gate at 0.1 %, 5 mm measurement floor.
+    fn default() -> Self {
         Self {
-            min_information_per_m2: config.min_information_per_m2(),
-            rotation_scale_m: config.rotation_scale_m,
             gate: GateProbability::P999,
             min_measurement_sd_m: 0.005,
         }
-    }
-}
-
-impl Default for UpdateConfig {
-    fn default() -> Self {
-        Self::for_matcher(&MatchConfig::default())
     }
 }
 
@@ -131,7 +119,8 @@ impl fmt::Display for UpdateRejection {
 }
 
 impl Ekf {
-    /// Updates with a match result (its pose and information).
+    /// Updates with a match result: its pose and information, observed as the matcher
+    /// judged ([`MatchResult::observability`]).
     pub fn update_with_match(
         &mut self,
         result: &MatchResult,
@@ -139,11 +128,18 @@ impl Ekf {
     ) -> Result<UpdateReport, UpdateRejection> {
         let d = &result.degeneracy;
         let hold = d.degenerate.then_some(d.direction_world);
-        self.update(result.pose, &result.information, hold, config)
+        self.update(
+            result.pose,
+            &result.information,
+            hold,
+            &result.observability,
+            config,
+        )
     }
 
     /// Updates with a measured vehicle pose (world frame) and its information matrix
-    /// (`(x_m, y_m, theta_rad)`, m⁻², m⁻¹rad⁻¹, rad⁻²; may be singular).
+    /// (`(x_m, y_m, theta_rad)`, m⁻², m⁻¹rad⁻¹, rad⁻²; may be singular); `observability`
+    /// says which of its directions count as measured.
     ///
     /// `unobserved_direction` (unit, world frame), when given, is a direction of travel the
     /// scan does not observe (the tunnel axis with no landmark in view): the gain is
@@ -157,16 +153,13 @@ impl Ekf {
         measured: Pose2,
         information: &Matrix3<f32>,
         unobserved_direction: Option<Point2>,
+        observability: &Observability,
         config: &UpdateConfig,
     ) -> Result<UpdateReport, UpdateRejection> {
         if !measured.is_finite() || !information.iter().all(|v| v.is_finite()) {
             return Err(UpdateRejection::NonFinite);
         }
-        let obs = observable_subspace(
-            information,
-            config.min_information_per_m2,
-            config.rotation_scale_m,
-        );
+        let obs = observability.subspace(information);
         if obs.rank == 0 {
             return Err(UpdateRejection::NothingObserved);
         }

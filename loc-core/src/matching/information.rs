@@ -80,6 +80,30 @@ fn valid_scale(rotation_scale_m: f32) -> f32 {
     }
 }
 
+/// When a direction of state space counts as observed by a match: its eigenvalue of the
+/// scaled information `S·I·S` (`S = diag(1, 1, 1/L)`) is at least `min_information_per_m2`.
+/// The matcher derives it from its [`crate::matching::MatchConfig`] and hands it on in the
+/// [`crate::matching::MatchResult`], so the filter judges observability exactly as the
+/// matcher did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observability {
+    /// Least information of an observed direction, m⁻² (scaled state).
+    pub min_information_per_m2: f32,
+    /// `L`, metres: how a rotation counts against a translation.
+    pub rotation_scale_m: f32,
+}
+
+impl Observability {
+    /// The observed directions of `information` ([`observable_subspace`]).
+    pub fn subspace(&self, information: &Matrix3<f32>) -> ObservableSubspace {
+        observable_subspace(
+            information,
+            self.min_information_per_m2,
+            self.rotation_scale_m,
+        )
+    }
+}
+
 /// The directions of state space the information pins down: the eigenvectors of the scaled
 /// information `S·I·S` (`S = diag(1, 1, 1/L)`, scaled state `(x_m, y_m, L·theta_rad)`) with
 /// eigenvalue at least `min_information`. Columns past `rank` are zero.

@@ -63,7 +63,7 @@ pub use association::{
 pub use guided::{match_scan_with_prealign, GuidedMatch, COARSE_MATCH_POINTS};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
-    NormalEquations, ObservableSubspace,
+    NormalEquations, Observability, ObservableSubspace,
 };
 pub use points::{select_match_points, MatchPoints, SelectionCounts};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
@@ -156,6 +156,14 @@ impl MatchConfig {
         self.min_information_points / self.sigma_sq_m2()
     }
 
+    /// When a direction counts as observed by this matcher's results.
+    pub fn observability(&self) -> Observability {
+        Observability {
+            min_information_per_m2: self.min_information_per_m2(),
+            rotation_scale_m: self.rotation_scale_m,
+        }
+    }
+
     fn sigma_sq_m2(&self) -> f32 {
         let s = self.range_noise_sigma_m;
         if s.is_finite() && s > 0.0 {
@@ -184,6 +192,8 @@ pub struct MatchResult {
     pub inliers: u16,
     /// Translation degeneracy of the information.
     pub degeneracy: Degeneracy,
+    /// The observability criterion the degeneracy was judged by (the filter uses the same).
+    pub observability: Observability,
 }
 
 /// Why a match failed.
@@ -359,6 +369,7 @@ fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
         cost_m: o.cost_m,
         inliers: u16::try_from(o.equations.count).unwrap_or(u16::MAX),
         degeneracy: degeneracy(&information, threshold, config.rotation_scale_m),
+        observability: config.observability(),
     }
 }
 

@@ -1,12 +1,14 @@
 //! "Recording" of the replay data on the host at build time, with loc-core's test kit: a
 //! straight 5 m tunnel with the paper's P1 triangular landmarks, its stored map serialised
-//! exactly as it is flashed, and LMS511 scans (1141 beams, 10 mm noise) along a drive
-//! through it, as the raw u16 millimetre ranges the driver hands over, with the true poses
-//! and a 2 %-scale-error odometry between scans.
+//! exactly as it is flashed, the start pose the controller is given (the truth 0.34 m and
+//! 0.02 rad off), and LMS511 scans (1141 beams, 10 mm noise) along a drive through it as
+//! the CoLa-B `LMDscandata` telegrams an LMS511 sends, with the true poses and a
+//! 2 %-scale-error odometry between scans.
 //!
-//! Written into OUT_DIR (`map.bin`, `scans_mm.bin`, `recording.rs`) and embedded by
-//! `src/recorded.rs`; plus `scans_colab.bin`, the same scans as a raw CoLa-B `LMDscandata`
-//! stream (what an LMS511 sends) for the LMS5xx emulator in the controller's QEMU test.
+//! Written into OUT_DIR (`map.bin`, `start_pose.bin`, `scans_colab.bin`, `recording.rs`)
+//! and embedded by `src/recorded.rs`; `scans_colab.bin` is also what the LMS5xx emulator
+//! serves the controller in the QEMU hardware-in-the-loop test, with `map.bin` and
+//! `start_pose.bin` in the map flash region.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -16,6 +18,7 @@ use lidar_driver::{ChannelRepr, CommandType, Dialect, ScanHeader, ScanRepr};
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
+use loc_core::localizer::StartPose;
 use loc_core::map::TunnelMap;
 use loc_core::scan::{SensorSetup, LMS511_MAX_BEAMS};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
@@ -34,6 +37,10 @@ const START_S_M: f32 = 20.0;
 const STEP_M: f32 = 0.4;
 /// Odometry scale error (a skid-steer loader drifts 1–5 % of distance).
 const ODOMETRY_SCALE: f32 = 1.02;
+/// Error of the start pose given to the controller: x, y (metres), heading (radians).
+const INITIAL_ERROR: [f32; 3] = [0.3, -0.15, 0.02];
+/// 1σ of the start pose: position (metres, each axis), heading (radians).
+const INITIAL_SIGMA: [f32; 2] = [0.5, 0.05];
 
 /// The true pose at scan `k`: along the centre line, weaving up to 0.4 m sideways, heading
 /// a few degrees off the tunnel axis.
@@ -106,7 +113,7 @@ pub fn write_recordings(out: &Path) {
     let setup = SensorSetup::lms511_forward(0.0, 0.0);
     let mut sim = ScanSimulator::new(NOISE_SEED);
     let mut ranges_m = [0.0f32; LMS511_MAX_BEAMS];
-    let mut raw = Vec::with_capacity(SCANS * LMS511_MAX_BEAMS * 2);
+    let mut offsets = String::new();
     let mut truth = String::new();
     let mut odometry = String::new();
     let mut previous: Option<Pose2> = None;
@@ -114,14 +121,15 @@ pub fn write_recordings(out: &Path) {
     for k in 0..SCANS {
         let pose = true_pose(&spec, k);
         sim.simulate(&*map, &pose, &setup, &mut ranges_m);
-        let mut values = Vec::with_capacity(LMS511_MAX_BEAMS);
-        for r_m in ranges_m {
-            // What the LMS511 reports: whole millimetres, 0 = no echo.
-            let mm = (r_m * 1000.0).round().clamp(0.0, 65535.0) as u16;
-            raw.extend_from_slice(&mm.to_le_bytes());
-            values.push(mm);
-        }
-        colab.extend(scan_telegram(k, values));
+        // What the LMS511 reports: whole millimetres (65534 at most: 0xFFFF reads as
+        // saturated), 0 = no echo.
+        let values = ranges_m
+            .iter()
+            .map(|r_m| (r_m * 1000.0).round().clamp(0.0, 65534.0) as u16)
+            .collect();
+        let telegram = scan_telegram(k, values);
+        writeln!(offsets, "    ({}, {}),", colab.len(), telegram.len()).unwrap();
+        colab.extend(telegram);
         writeln!(
             truth,
             "    [{:?}, {:?}, {:?}],",
@@ -146,14 +154,28 @@ pub fn write_recordings(out: &Path) {
         .unwrap();
         previous = Some(pose);
     }
-    fs::write(out.join("scans_mm.bin"), raw).expect("write scans_mm.bin");
     fs::write(out.join("scans_colab.bin"), colab).expect("write scans_colab.bin");
+    let truth0 = true_pose(&spec, 0);
+    let start = StartPose {
+        pose: Pose2::new(
+            truth0.x_m + INITIAL_ERROR[0],
+            truth0.y_m + INITIAL_ERROR[1],
+            truth0.theta_rad + INITIAL_ERROR[2],
+        ),
+        sigma_xy_m: INITIAL_SIGMA[0],
+        sigma_theta_rad: INITIAL_SIGMA[1],
+    };
+    fs::write(out.join("start_pose.bin"), start.to_bytes()).expect("write start_pose.bin");
     let landmarks = map.landmarks().len();
     let src = format!(
         "/// Scans in the recording.\npub const SCAN_COUNT: usize = {SCANS};\n\
          /// Beams per scan.\npub const BEAMS_PER_SCAN: usize = {LMS511_MAX_BEAMS};\n\
          /// Landmarks in the recorded map.\npub const MAP_LANDMARKS: usize = {landmarks};\n\
          /// Length of the serialised map, bytes.\npub const MAP_BYTES_LEN: usize = {n};\n\
+         /// Error of the recorded start pose against the first true pose: x_m, y_m, theta_rad.\n\
+         pub const INITIAL_ERROR: [f32; 3] = {INITIAL_ERROR:?};\n\
+         /// `(offset, length)` of each scan's telegram in the CoLa-B stream, bytes.\n\
+         pub const TELEGRAMS: [(usize, usize); {SCANS}] = [\n{offsets}];\n\
          /// True vehicle pose `[x_m, y_m, theta_rad]` (world frame) at each scan.\n\
          pub const TRUE_POSES: [[f32; 3]; {SCANS}] = [\n{truth}];\n\
          /// Odometry since the previous scan `[dx_m, dy_m, dtheta_rad]` (vehicle frame; \

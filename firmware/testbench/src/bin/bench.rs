@@ -1,23 +1,22 @@
-//! Benchmark: the loc-core pipeline (strip, match, filter) on the recorded 1141-point LMS511
-//! scans against the flashed map; instructions per scan for each stage and end to end (mean
-//! and max), checked against the budget.
+//! Benchmark: the product's controller on the recorded 1141-point LMS511 telegrams against
+//! the flashed map; instructions per scan for each stage (telegram to scan, strip, select,
+//! match, filter — loc-core's stages timed through its stage hook) and end to end (mean and
+//! max), checked against the budget.
 //!
 //! Under QEMU (`-icount shift=0`) the counter is in executed instructions; on hardware in
-//! core cycles. Exits with failure when the `Localizer`'s end-to-end maximum exceeds the
-//! budget, or when the replay itself fails (map, staged chain and Localizer disagreeing).
+//! core cycles. Exits with failure when the end-to-end maximum exceeds the budget, or when
+//! the replay itself fails.
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
-use firmware::instruction_loop;
-use firmware::pipeline::{Stage, StagedPipeline};
-use firmware::recorded::{BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
-use firmware::replay::{self, ReplaySlots};
-use firmware::stage_stats::StageStats;
-use loc_core::localizer::Localizer;
+use firmware::controller::Controller;
+use firmware_testbench::instruction_loop;
+use firmware_testbench::recorded::{BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
+use firmware_testbench::replay;
+use firmware_testbench::stage_stats::{BenchStage, StageStats};
 use loc_core::map::TunnelMap;
-use loc_core::scan::Scan;
 
 /// End-to-end budget per 1141-point scan, instructions (about 9 ms of a 168 MHz Cortex-M4F
 /// at one instruction per cycle, well under the 40 ms scan period at 25 Hz).
@@ -63,15 +62,13 @@ fn main() -> ! {
         SelectedBoard::COUNTER_RESOLUTION
     );
 
-    for cost in firmware::math_costs::measure_all(&board) {
+    for cost in firmware_testbench::math_costs::measure_all(&board) {
         defmt::println!("math {=str}: {=u64} per call", cost.name, cost.per_call);
     }
 
-    let (Some(map), Some(scan), Some(staged), Some(localizer)) = (
+    let (Some(map), Some(slot)) = (
         cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
-        cortex_m::singleton!(: Scan = Scan::new()),
-        cortex_m::singleton!(: Option<StagedPipeline> = None),
-        cortex_m::singleton!(: Option<Localizer<'static, TunnelMap>> = None),
+        cortex_m::singleton!(: Option<Controller<'static>> = None),
     ) else {
         fail()
     };
@@ -90,15 +87,7 @@ fn main() -> ! {
     );
     let map: &'static TunnelMap = map;
 
-    let report = match replay::replay(
-        &board,
-        map,
-        ReplaySlots {
-            scan,
-            staged,
-            localizer,
-        },
-    ) {
+    let report = match replay::replay(&board, map, slot) {
         Ok(r) => r,
         Err(e) => {
             defmt::error!("replay failed: {}", e);
@@ -112,14 +101,13 @@ fn main() -> ! {
         BEAMS_PER_SCAN,
         SelectedBoard::COUNTER_UNIT
     );
-    for (stage, s) in Stage::ALL.iter().zip(report.stages.iter()) {
+    for (stage, s) in BenchStage::ALL.iter().zip(report.stages.iter()) {
         print_stats(stage.name(), s);
     }
-    print_stats("sum-of-stages", &report.staged_end_to_end);
-    print_stats("end-to-end (Localizer)", &report.localizer_end_to_end);
+    print_stats("end-to-end (controller)", &report.end_to_end);
     print_stats(
-        "end-to-end (Localizer) without the first, acquisition scan",
-        &report.localizer_tracking,
+        "end-to-end (controller) without the first, acquisition scan",
+        &report.tracking,
     );
     defmt::println!(
         "localizer: {=u32} tracking, {=u32} degenerate, {=u32} rejected; final error {=f32} m, {=f32} rad; max error over the second half {=f32} m",
@@ -133,7 +121,7 @@ fn main() -> ! {
 
     let (worst_k, worst) = report.worst_scan;
     defmt::println!("worst scan {=usize}:", worst_k);
-    for (stage, cost) in Stage::ALL.iter().zip(worst.0) {
+    for (stage, cost) in BenchStage::ALL.iter().zip(worst.0) {
         defmt::println!(
             "  {=str}: {=u64} ({=u64} % of the budget)",
             stage.name(),
@@ -143,14 +131,7 @@ fn main() -> ! {
     }
 
     let mut ok = true;
-    if report.pose_mismatches != 0 {
-        defmt::println!(
-            "FAIL: staged chain and Localizer disagree on {=u32} scans",
-            report.pose_mismatches
-        );
-        ok = false;
-    }
-    let worst = report.localizer_end_to_end.max;
+    let worst = report.end_to_end.max;
     if worst <= BUDGET_INSTRUCTIONS {
         defmt::println!(
             "budget PASS: max {=u64} <= {=u64} instructions per scan end to end",

@@ -5,9 +5,8 @@
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
-use firmware::pipeline::StagedPipeline;
-use firmware::test_harness::TestRunner;
-use loc_core::localizer::Localizer;
+use firmware::controller::Controller;
+use firmware_testbench::test_harness::TestRunner;
 use loc_core::map::TunnelMap;
 use loc_core::scan::Scan;
 
@@ -19,13 +18,12 @@ fn main() -> ! {
         defmt::error!("board peripherals already taken");
         SelectedBoard::exit(ExitStatus::Failure)
     };
-    let (Some(map), Some(scan), Some(staged), Some(localizer), Some(map_copy)) = (
+    let (Some(map), Some(scan), Some(controller), Some(map_copy)) = (
         cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
         cortex_m::singleton!(: Scan = Scan::new()),
-        cortex_m::singleton!(: Option<StagedPipeline> = None),
-        cortex_m::singleton!(: Option<Localizer<'static, TunnelMap>> = None),
-        cortex_m::singleton!(: [u8; firmware::recorded::MAP_BYTES_LEN] =
-            [0; firmware::recorded::MAP_BYTES_LEN]),
+        cortex_m::singleton!(: Option<Controller<'static>> = None),
+        cortex_m::singleton!(: [u8; firmware_testbench::recorded::MAP_BYTES_LEN] =
+            [0; firmware_testbench::recorded::MAP_BYTES_LEN]),
     ) else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
@@ -34,8 +32,7 @@ fn main() -> ! {
     let memory = tests::Memory {
         map,
         scan,
-        staged,
-        localizer,
+        controller,
         map_copy,
     };
     tests::run_all(&mut runner, &mut board, memory);

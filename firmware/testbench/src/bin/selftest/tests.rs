@@ -1,17 +1,17 @@
 //! The on-target tests themselves, one function each, registered in [`run_all`].
 
 use firmware::board::{Board, CounterUnit, SelectedBoard};
-use firmware::controller::{self, MapSource};
-use firmware::instruction_loop;
-use firmware::pipeline::StagedPipeline;
+use firmware::controller::{self, Controller, StartSource, START_POSE_BLOCK_BYTES};
 use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
-use firmware::recorded::{self, BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
-use firmware::replay::{self, ReplaySlots, INITIAL_ERROR};
-use firmware::scan_input::load_scan;
-use firmware::test_harness::{check, TestResult, TestRunner};
-use lidar_driver::{Framer, ScanData};
+use firmware_testbench::instruction_loop;
+use firmware_testbench::recorded::{
+    self, BEAMS_PER_SCAN, INITIAL_ERROR, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT,
+};
+use firmware_testbench::replay;
+use firmware_testbench::test_harness::{check, TestResult, TestRunner};
+use lidar_driver::{Frame, ScanData};
 use loc_core::geometry::Point2;
-use loc_core::localizer::{Localizer, LocalizerConfig};
+use loc_core::localizer::{LocalizerConfig, StartPoseError};
 use loc_core::map::{MapError, MapQuery, TunnelMap};
 use loc_core::scan::Scan;
 use loc_core::scan::LMS511_MAX_BEAMS;
@@ -23,10 +23,8 @@ pub struct Memory {
     pub map: &'static mut TunnelMap,
     /// A scan buffer.
     pub scan: &'static mut Scan,
-    /// Scratch of the staged chain.
-    pub staged: &'static mut Option<StagedPipeline>,
-    /// Scratch of the localizer.
-    pub localizer: &'static mut Option<Localizer<'static, TunnelMap>>,
+    /// The controller under test.
+    pub controller: &'static mut Option<Controller<'static>>,
     /// A RAM copy of the map bytes to damage.
     pub map_copy: &'static mut [u8; MAP_BYTES_LEN],
 }
@@ -36,8 +34,7 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
     let Memory {
         map,
         scan,
-        staged,
-        localizer,
+        controller,
         map_copy,
     } = memory;
     runner.run("counter_calibrates_against_known_loop", || {
@@ -60,12 +57,16 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         map_region_loads(board, map)
     });
     runner.run("recorded_scans_strip_to_both_walls", || scans_strip(scan));
-    runner.run("lmdscandata_telegrams_give_the_same_scans", || {
-        telegrams_give_the_same_scans(scan)
+    runner.run("telegram_scans_step_by_the_exact_beam_angle", || {
+        telegram_scans_use_the_exact_step(scan)
     });
+    runner.run(
+        "start_pose_record_and_its_damage",
+        start_pose_record_and_its_damage,
+    );
     let map: &'static TunnelMap = map;
-    runner.run("localizer_converges_on_recorded_scans", || {
-        localizer_converges(board, map, scan, staged, localizer)
+    runner.run("controller_converges_on_recorded_telegrams", || {
+        controller_converges(board, map, controller)
     });
 }
 
@@ -239,14 +240,21 @@ fn map_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
     )
 }
 
-/// Every recorded scan converts to > 1000 points and both tunnel walls are found in it.
+/// Recorded telegram `k`, decoded.
+fn telegram(k: usize) -> Result<ScanData<'static>, &'static str> {
+    let bytes = recorded::telegram(k).ok_or("recorded telegram missing")?;
+    let frame = Frame::new_checked(bytes).map_err(|_| "a recorded telegram is not a frame")?;
+    ScanData::new_checked(frame).map_err(|_| "a recorded telegram did not decode")
+}
+
+/// Every recorded telegram converts (scan-input) to > 1000 points and both tunnel walls
+/// are found in it.
 fn scans_strip(scan: &mut Scan) -> TestResult {
     let config = LocalizerConfig::default();
-    let mut raw = [0u16; BEAMS_PER_SCAN];
     let mut labels = [PointLabel::Outlier; LMS511_MAX_BEAMS];
     for k in 0..SCAN_COUNT {
-        check(recorded::load_scan_mm(k, &mut raw), "recorded scan missing")?;
-        scan.load_raw_mm(&config.sensor, &raw, 1.0, 0.0);
+        scan_input::load_scan(&telegram(k)?, &config.sensor, scan)
+            .map_err(|_| "scan-input refused a recorded telegram")?;
         check(
             scan.len() > 1000,
             "fewer than 1000 valid beams in a recorded scan",
@@ -264,26 +272,57 @@ fn scans_strip(scan: &mut Scan) -> TestResult {
     Ok(())
 }
 
-/// From an initial pose 0.34 m and 0.02 rad off, the localizer pulls in and stays close to
-/// the truth over the recorded drive with 2 % odometry scale error; the stage-by-stage
-/// chain ends every scan at exactly the Localizer's pose.
-fn localizer_converges(
+/// The telegrams say 1667 (1/10000°) but 25 Hz and 54 kHz: the conversion steps by the
+/// exact 1/6°, so the last of the 1141 beams sits at 185°, not 185.04°.
+fn telegram_scans_use_the_exact_step(scan: &mut Scan) -> TestResult {
+    let sensor = LocalizerConfig::default().sensor;
+    for k in 0..SCAN_COUNT {
+        let layout = scan_input::load_scan(&telegram(k)?, &sensor, scan)
+            .map_err(|_| "scan-input refused a recorded telegram")?;
+        check(
+            usize::from(layout.beams) == BEAMS_PER_SCAN,
+            "telegram without 1141 beams",
+        )?;
+        let last_deg = layout.beam_angle_rad(BEAMS_PER_SCAN - 1) * 180.0 / core::f64::consts::PI;
+        check(
+            (last_deg - 185.0).abs() < 1e-6,
+            "the last beam is not at 185 degrees (the rounded step was used)",
+        )?;
+    }
+    Ok(())
+}
+
+/// The recorded start-pose record reads back as the recording's start; a damaged copy is
+/// refused by its CRC, and erased flash reads as no record.
+fn start_pose_record_and_its_damage() -> TestResult {
+    let start = replay::start_pose().map_err(|_| "the recorded start pose did not read")?;
+    let [x, y, _] = recorded::TRUE_POSES[0];
+    check(
+        loc_core::math::abs(start.pose.x_m - (x + INITIAL_ERROR[0])) < 1e-5
+            && loc_core::math::abs(start.pose.y_m - (y + INITIAL_ERROR[1])) < 1e-5,
+        "start pose is not the recording's start plus its error",
+    )?;
+    let mut copy = [0u8; loc_core::localizer::START_POSE_BYTES];
+    copy.copy_from_slice(recorded::START_POSE_BYTES);
+    copy[9] ^= 0x01;
+    check(
+        loc_core::localizer::StartPose::from_bytes(&copy) == Err(StartPoseError::ChecksumMismatch),
+        "a damaged start pose was not refused by its CRC",
+    )?;
+    check(
+        loc_core::localizer::StartPose::from_bytes(&[0xFF; 32]) == Err(StartPoseError::NotPresent),
+        "erased flash did not read as no start pose",
+    )
+}
+
+/// From the recorded start pose (0.34 m and 0.02 rad off), the controller pulls in and
+/// stays close to the truth over the recorded drive with 2 % odometry scale error.
+fn controller_converges(
     board: &SelectedBoard,
     map: &'static TunnelMap,
-    scan: &mut Scan,
-    staged: &mut Option<StagedPipeline>,
-    localizer: &mut Option<Localizer<'static, TunnelMap>>,
+    slot: &mut Option<Controller<'static>>,
 ) -> TestResult {
-    let report = replay::replay(
-        board,
-        map,
-        ReplaySlots {
-            scan,
-            staged,
-            localizer,
-        },
-    )
-    .map_err(|_| "replay could not run")?;
+    let report = replay::replay(board, map, slot).map_err(|_| "replay could not run")?;
     let initial_error_m = loc_core::math::hypot(INITIAL_ERROR[0], INITIAL_ERROR[1]);
     defmt::println!(
         "  initial error {=f32} m; final {=f32} m, {=f32} rad; worst over the second half {=f32} m; {=u32} tracking, {=u32} degenerate, {=u32} rejected",
@@ -295,10 +334,6 @@ fn localizer_converges(
         report.statuses[1],
         report.statuses[2]
     );
-    check(
-        report.pose_mismatches == 0,
-        "staged chain and Localizer disagree on the pose",
-    )?;
     check(
         report.final_error_m < 0.05 && report.max_late_error_m < 0.1,
         "position error does not stay within 0.05 m (final) / 0.1 m (second half)",
@@ -313,65 +348,26 @@ fn localizer_converges(
     )
 }
 
-/// Every CoLa-B `LMDscandata` telegram of the recording, framed by `lidar-driver` and
-/// converted by `scan_input`, gives exactly the points of the raw-ranges path.
-fn telegrams_give_the_same_scans(scan: &mut Scan) -> TestResult {
-    let sensor = LocalizerConfig::default().sensor;
-    let mut framer = Framer::new([0u8; 4096]);
-    let mut raw = [0u16; LMS511_MAX_BEAMS];
-    let mut expected_raw = [0u16; BEAMS_PER_SCAN];
-    let mut expected = Scan::new();
-    let mut frames = 0usize;
-    let mut outcome: TestResult = Ok(());
-    framer.feed(recorded::SCANS_COLAB, |frame| {
-        if outcome.is_err() {
-            return;
-        }
-        outcome = (|| {
-            let frame = frame.map_err(|_| "the framer rejected a recorded telegram")?;
-            let telegram =
-                ScanData::new_checked(frame).map_err(|_| "a recorded telegram did not decode")?;
-            let beams = load_scan(&telegram, &sensor, &mut raw, scan)
-                .map_err(|_| "scan_input refused a recorded telegram")?;
-            check(beams == BEAMS_PER_SCAN, "telegram without 1141 beams")?;
-            check(
-                recorded::load_scan_mm(frames, &mut expected_raw),
-                "recorded scan missing",
-            )?;
-            expected.load_raw_mm(&sensor, &expected_raw, 1.0, 0.0);
-            check(
-                scan.points() == expected.points(),
-                "telegram scan differs from the raw-range scan",
-            )?;
-            frames += 1;
-            Ok(())
-        })();
-    });
-    outcome?;
-    check(
-        frames == SCAN_COUNT,
-        "not every recorded telegram was framed",
-    )
-}
-
-/// The board's map flash region holds the map the test runner put there (QEMU
-/// `-device loader,file=map.bin,addr=0x00300000`), and the controller's map loading takes it
-/// from there, starting at the tunnel's chainage 0 (the world origin for the test kit).
+/// The board's map flash region holds the map and the start pose the test runner put there
+/// (QEMU `-device loader,file=…/map.bin,addr=0x00300000` and
+/// `…/start_pose.bin,addr=0x003FF000`), and the controller's start-up reads both.
 fn map_region_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
     let region = board.map_region();
     check(
         region.get(..MAP_BYTES_LEN) == Some(recorded::MAP_BYTES),
         "map flash region does not hold the recorded map (run QEMU with -device loader,file=…/map.bin,addr=0x00300000)",
     )?;
-    let (source, pose, _) =
-        controller::load_map(region, map).map_err(|_| "map in the flash region did not load")?;
+    controller::load_map(region, map).map_err(|_| "map in the flash region did not load")?;
+    let (source, start, _) =
+        controller::start_pose(region, map).map_err(|_| "no start pose from the flash region")?;
+    let expected = replay::start_pose().map_err(|_| "the recorded start pose did not read")?;
     check(
-        source == MapSource::FlashRegion,
-        "controller did not take the flashed map",
+        source == StartSource::Record && start == expected,
+        "the controller did not take the flashed start pose (run QEMU with -device loader,file=…/start_pose.bin,addr=0x003FF000)",
     )?;
     check(
-        pose.x_m.abs() < 1e-3 && pose.y_m.abs() < 1e-3 && pose.theta_rad.abs() < 1e-3,
-        "start pose of a flashed map is not the tunnel's chainage 0",
+        region.len() > START_POSE_BLOCK_BYTES + MAP_BYTES_LEN,
+        "map region too small for the map and the start-pose block",
     )?;
     // Leave the recorded map loaded for the tests after this one.
     replay::load_map(board, map)

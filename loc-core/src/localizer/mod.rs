@@ -1,8 +1,8 @@
 //! The facade the firmware and the simulator drive: feed odometry and scans, read the pose,
 //! its covariance and a status.
 //!
-//! One scan runs four public stages, each callable on its own (benchmarks and the firmware
-//! time them separately):
+//! One scan runs four stages ([`Stage`]); [`Localizer::update_scan_observed`] reports each to
+//! a [`StageObserver`] (benchmarks and the firmware time them that way, on this very code):
 //! 1. [`crate::strip::strip_walls`]: label points wall / landmark / outlier (vehicle frame);
 //! 2. [`crate::matching::select_match_points`]: the points to match;
 //! 3. [`crate::matching::match_scan_with_prealign`]: landmark pre-alignment
@@ -14,213 +14,28 @@
 //! points, the match workspace); keep it in a `static` or on a large stack. No allocation,
 //! no panics, bounded time per call.
 
-use core::fmt;
+mod config;
+mod stages;
+mod start_pose;
+mod status;
+
+pub use config::LocalizerConfig;
+pub use stages::{Stage, StageObserver};
+pub use start_pose::{
+    StartPose, StartPoseError, START_POSE_BYTES, START_POSE_MAGIC, START_POSE_VERSION,
+};
+pub use status::{RejectReason, Status};
 
 use nalgebra::Matrix3;
 
-use crate::filter::{
-    Ekf, FilterInitError, OdometryIncrement, OdometryNoise, OdometryRejection, UpdateConfig,
-    UpdateRejection,
-};
-use crate::geometry::{Point2, Pose2};
+use crate::filter::{Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
+use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
-    match_scan_with_prealign, select_match_points, MatchConfig, MatchError, MatchPoints,
-    MatchResult, MatchWorkspace, PrealignConfig,
+    match_scan_with_prealign, select_match_points, MatchPoints, MatchResult, MatchWorkspace,
 };
-use crate::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
-use crate::strip::{strip_walls, PointLabel, StripConfig, StripSummary};
-
-/// Everything a [`Localizer`] is tuned by.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LocalizerConfig {
-    /// The scanner's beam layout and mounting on the vehicle. Informational for the
-    /// localizer (scans arrive as [`Scan`]s already in the vehicle frame); build scans with
-    /// the same setup.
-    pub sensor: SensorSetup,
-    /// Wall stripping.
-    pub strip: StripConfig,
-    /// Wall points kept for matching (landmark points are all kept).
-    pub max_wall_points: u16,
-    /// Wall points farther than `wall_range_scale_m2 / σ` are not matched, where σ is the
-    /// predicted position's largest standard deviation (metres; in a smooth tunnel the
-    /// along-tunnel one): with the position along the tunnel uncertain by σ, the stored
-    /// walls far ahead may bend where the scanned ones do not (or run straight where they
-    /// bend), and those points bias the lateral and heading fit. m².
-    pub wall_range_scale_m2: f32,
-    /// The wall range above never drops below this, metres (near walls fix the lateral
-    /// position and the heading).
-    pub min_wall_range_m: f32,
-    /// Along-tunnel pre-alignment on landmarks.
-    pub prealign: PrealignConfig,
-    /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
-    pub matching: MatchConfig,
-    /// Odometry noise model and step limits.
-    pub odometry: OdometryNoise,
-    /// Chi-square gate probability and measurement floor of the match update; the
-    /// observability threshold and θ scale are taken from `matching`.
-    pub update: UpdateConfig,
-}
-
-impl Default for LocalizerConfig {
-    fn default() -> Self {
-        let matching = MatchConfig::default();
-        Self {
-            sensor: SensorSetup::default(),
-            strip: StripConfig::default(),
-            max_wall_points: 100,
-            wall_range_scale_m2: 10.0,
-            min_wall_range_m: 15.0,
-            prealign: PrealignConfig::default(),
-            matching,
-            odometry: OdometryNoise::default(),
-            update: UpdateConfig::for_matcher(&matching),
-        }
-    }
-}
-
-/// Why the last scan did not update the pose.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum RejectReason {
-    /// Too few points after stripping and selection.
-    TooFewPoints {
-        /// Points available.
-        available: u16,
-        /// Points required.
-        required: u16,
-    },
-    /// Too few points near the map at the predicted pose.
-    TooFewAssociations {
-        /// Points associated.
-        associated: u16,
-        /// Points required.
-        required: u16,
-    },
-    /// The matcher did not converge.
-    DidNotConverge {
-        /// Iterations run.
-        iterations: u16,
-    },
-    /// The match disagreed with the prediction (squared Mahalanobis distance over the gate).
-    FailedGate {
-        /// Squared Mahalanobis distance.
-        mahalanobis_sq: f32,
-        /// Gate threshold.
-        threshold: f32,
-    },
-    /// The match observed no direction of the pose.
-    NothingObserved,
-    /// Non-finite data reached the matcher or the filter.
-    NonFinite,
-}
-
-impl From<MatchError> for RejectReason {
-    fn from(e: MatchError) -> Self {
-        match e {
-            MatchError::TooFewPoints {
-                available,
-                required,
-            } => RejectReason::TooFewPoints {
-                available,
-                required,
-            },
-            MatchError::TooFewAssociations {
-                associated,
-                required,
-            } => RejectReason::TooFewAssociations {
-                associated,
-                required,
-            },
-            MatchError::DidNotConverge { iterations, .. } => {
-                RejectReason::DidNotConverge { iterations }
-            }
-            MatchError::NonFiniteInput => RejectReason::NonFinite,
-        }
-    }
-}
-
-impl From<UpdateRejection> for RejectReason {
-    fn from(e: UpdateRejection) -> Self {
-        match e {
-            UpdateRejection::NothingObserved => RejectReason::NothingObserved,
-            UpdateRejection::FailedGate {
-                mahalanobis_sq,
-                threshold,
-                ..
-            } => RejectReason::FailedGate {
-                mahalanobis_sq,
-                threshold,
-            },
-            UpdateRejection::NonFinite => RejectReason::NonFinite,
-        }
-    }
-}
-
-impl fmt::Display for RejectReason {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RejectReason::TooFewPoints { available, required } => {
-                write!(f, "too few scan points ({available} < {required})")
-            }
-            RejectReason::TooFewAssociations { associated, required } => write!(
-                f,
-                "too few points near the map ({associated} < {required}): prediction far off or outside the map"
-            ),
-            RejectReason::DidNotConverge { iterations } => {
-                write!(f, "matcher did not converge in {iterations} iterations")
-            }
-            RejectReason::FailedGate { mahalanobis_sq, threshold } => write!(
-                f,
-                "match failed the gate (Mahalanobis² {mahalanobis_sq} > {threshold})"
-            ),
-            RejectReason::NothingObserved => write!(f, "the scan observes no direction of the pose"),
-            RejectReason::NonFinite => write!(f, "non-finite data"),
-        }
-    }
-}
-
-/// What the localizer knows after its last call.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Status {
-    /// No initial pose yet: call [`Localizer::initialise`].
-    NotInitialised,
-    /// Odometry only since the initial pose (no scan yet).
-    DeadReckoning,
-    /// The last scan updated every direction of the pose.
-    Tracking,
-    /// The last scan updated the pose except along `direction_world` (no landmark in view
-    /// in a smooth tunnel): along it the estimate follows odometry.
-    Degenerate {
-        /// The unobserved direction, unit vector, world frame.
-        direction_world: Point2,
-        /// The information along it, m⁻².
-        eigenvalue_per_m2: f32,
-    },
-    /// The last scan was not used; the estimate continues on odometry.
-    MatchRejected {
-        /// Why.
-        reason: RejectReason,
-    },
-}
-
-impl fmt::Display for Status {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Status::NotInitialised => write!(f, "not initialised: give an initial pose"),
-            Status::DeadReckoning => write!(f, "dead reckoning (no scan yet)"),
-            Status::Tracking => write!(f, "tracking"),
-            Status::Degenerate {
-                direction_world,
-                eigenvalue_per_m2,
-            } => write!(
-                f,
-                "degenerate along ({:.3}, {:.3}) (information {eigenvalue_per_m2:.1} m^-2): odometry there",
-                direction_world.x_m, direction_world.y_m
-            ),
-            Status::MatchRejected { reason } => write!(f, "scan not used: {reason}"),
-        }
-    }
-}
+use crate::scan::{Scan, LMS511_MAX_BEAMS};
+use crate::strip::{strip_walls, PointLabel, StripSummary};
 
 /// The localisation pipeline over a map `M`.
 pub struct Localizer<'m, M: MapQuery> {
@@ -304,6 +119,15 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// Runs strip → select → pre-align → match → update on one scan (vehicle-frame points
     /// in beam order, as [`Scan`] holds them) and returns the new status.
     pub fn update_scan(&mut self, scan: &Scan) -> Status {
+        self.update_scan_observed(scan, &mut ())
+    }
+
+    /// [`Localizer::update_scan`], reporting each [`Stage`] to `observer` as it runs.
+    pub fn update_scan_observed<O: StageObserver>(
+        &mut self,
+        scan: &Scan,
+        observer: &mut O,
+    ) -> Status {
         let Some(ekf) = self.ekf.as_mut() else {
             self.status = Status::NotInitialised;
             return self.status;
@@ -312,8 +136,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let points = scan.points();
         let n = points.len().min(self.labels.len());
         let labels = self.labels.get_mut(..n).unwrap_or_default();
+
+        observer.begin(Stage::Strip);
         let strip = strip_walls(points, &cfg.strip, labels);
         self.last_strip = Some(strip);
+        observer.end(Stage::Strip);
+
+        observer.begin(Stage::Select);
         select_match_points(
             points,
             labels,
@@ -321,7 +150,10 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             cfg.wall_range_m(&ekf.covariance()),
             &mut self.match_points,
         );
-        let result = match match_scan_with_prealign(
+        observer.end(Stage::Select);
+
+        observer.begin(Stage::Match);
+        let matched = match_scan_with_prealign(
             self.map,
             points,
             labels,
@@ -332,7 +164,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
-        ) {
+        );
+        observer.end(Stage::Match);
+        let result = match matched {
             Ok(r) => r.result,
             Err(e) => {
                 self.last_match = None;
@@ -341,10 +175,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             }
         };
         self.last_match = Some(result);
-        let mut update = cfg.update;
-        update.min_information_per_m2 = cfg.matching.min_information_per_m2();
-        update.rotation_scale_m = cfg.matching.rotation_scale_m;
-        self.status = match ekf.update_with_match(&result, &update) {
+
+        observer.begin(Stage::Update);
+        self.status = match ekf.update_with_match(&result, &cfg.update) {
             Err(e) => Status::MatchRejected { reason: e.into() },
             Ok(_) if result.degeneracy.degenerate => Status::Degenerate {
                 direction_world: result.degeneracy.direction_world,
@@ -352,6 +185,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             },
             Ok(_) => Status::Tracking,
         };
+        observer.end(Stage::Update);
         self.status
     }
 
@@ -429,20 +263,6 @@ pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
     let half_diff = 0.5 * (a - c);
     let lambda = 0.5 * (a + c) + crate::math::sqrt(half_diff * half_diff + b * b);
     crate::math::sqrt(crate::math::max(lambda, 0.0))
-}
-
-impl LocalizerConfig {
-    /// How far out wall points are matched for a prediction with position covariance
-    /// `covariance` (see [`LocalizerConfig::wall_range_scale_m2`]), metres;
-    /// `f32::INFINITY` when the prediction is certain (or the covariance is not finite).
-    pub fn wall_range_m(&self, covariance: &Matrix3<f32>) -> f32 {
-        let sd_m = largest_position_sd_m(covariance);
-        if sd_m > 0.0 && sd_m.is_finite() {
-            crate::math::max(self.wall_range_scale_m2 / sd_m, self.min_wall_range_m)
-        } else {
-            f32::INFINITY
-        }
-    }
 }
 
 #[cfg(test)]

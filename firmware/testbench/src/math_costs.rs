@@ -6,7 +6,7 @@ use core::hint::black_box;
 
 use loc_core::math;
 
-use crate::board::Board;
+use firmware::board::Board;
 
 /// Calls per function measured.
 const CALLS: u32 = 256;

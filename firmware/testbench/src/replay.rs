@@ -1,0 +1,150 @@
+//! Replaying the recording through the product's [`Controller`]: the map and the start pose
+//! read from their flashed bytes as the controller reads them, each recorded telegram
+//! decoded and localised by the controller's own steps (predict with the recorded odometry,
+//! load the scan, localise), with the cost of each stage (loc-core's stages through its
+//! stage hook) and end to end, and the pose error against the recorded truth. Shared by the
+//! benchmark and the self-tests.
+
+use firmware::board::Board;
+use firmware::controller::Controller;
+use lidar_driver::{Frame, ScanData};
+use loc_core::filter::OdometryIncrement;
+use loc_core::localizer::{StartPose, StartPoseError, Status};
+use loc_core::map::{MapError, TunnelMap};
+
+use crate::recorded::{self, ODOMETRY, SCAN_COUNT, TRUE_POSES};
+use crate::stage_stats::{BenchStage, StageCosts, StageStats, StageTimer};
+
+/// Results of one replay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReplayReport {
+    /// Cost of each stage per scan, indexed like [`BenchStage::ALL`].
+    pub stages: [StageStats; BenchStage::ALL.len()],
+    /// The controller's whole per-scan work: prediction, telegram to scan, localisation.
+    pub end_to_end: StageStats,
+    /// The same without the first scan (which pulls the start pose's error in, the
+    /// acquisition case): the steady tracking cost.
+    pub tracking: StageStats,
+    /// The scan with the largest end-to-end cost, and its per-stage costs.
+    pub worst_scan: (usize, StageCosts),
+    /// Scans per status: tracking, degenerate, rejected.
+    pub statuses: [u32; 3],
+    /// Position error against the truth after the last scan, metres.
+    pub final_error_m: f32,
+    /// Heading error against the truth after the last scan, radians.
+    pub final_heading_error_rad: f32,
+    /// Largest position error over the second half of the scans, metres.
+    pub max_late_error_m: f32,
+}
+
+/// Why a replay could not run.
+#[derive(Debug, Clone, Copy, PartialEq, defmt::Format)]
+pub enum ReplayError {
+    /// The recorded start pose does not read (a bug in the build script).
+    StartPose,
+    /// The start covariance was rejected by the filter.
+    InitialPose,
+    /// A recorded telegram is missing or does not decode (a bug in the build script).
+    Telegram(usize),
+}
+
+/// The recorded start pose, read as the controller reads its flash record.
+pub fn start_pose() -> Result<StartPose, StartPoseError> {
+    StartPose::from_bytes(recorded::START_POSE_BYTES)
+}
+
+fn odometry(k: usize) -> OdometryIncrement {
+    let [dx_m, dy_m, dtheta_rad] = ODOMETRY.get(k).copied().unwrap_or([0.0; 3]);
+    OdometryIncrement {
+        dx_m,
+        dy_m,
+        dtheta_rad,
+    }
+}
+
+/// Loads the map from its flashed bytes into `map` (in place: a `TunnelMap` is ≈ 140 KiB),
+/// returning the cost on `board`'s counter.
+pub fn load_map<B: Board>(board: &B, map: &mut TunnelMap) -> Result<u64, MapError> {
+    let t0 = board.counter_now();
+    map.load_from_bytes(recorded::MAP_BYTES)?;
+    Ok(board.counter_now() - t0)
+}
+
+/// Replays every recorded telegram through a controller on `map` (already loaded, see
+/// [`load_map`]) kept in `slot`.
+pub fn replay<'m, B: Board>(
+    board: &B,
+    map: &'m TunnelMap,
+    slot: &mut Option<Controller<'m>>,
+) -> Result<ReplayReport, ReplayError> {
+    let start = start_pose().map_err(|_| ReplayError::StartPose)?;
+    let controller = slot.insert(Controller::new(map, &start).ok_or(ReplayError::InitialPose)?);
+    let mut report = ReplayReport {
+        stages: [StageStats::new(); BenchStage::ALL.len()],
+        end_to_end: StageStats::new(),
+        tracking: StageStats::new(),
+        worst_scan: (0, StageCosts::default()),
+        statuses: [0; 3],
+        final_error_m: f32::INFINITY,
+        final_heading_error_rad: f32::INFINITY,
+        max_late_error_m: 0.0,
+    };
+    for (k, &[x, y, th]) in TRUE_POSES.iter().enumerate() {
+        let bytes = recorded::telegram(k).ok_or(ReplayError::Telegram(k))?;
+        let t0 = board.counter_now();
+        controller.predict(Some(&odometry(k)));
+        let t1 = board.counter_now();
+        let telegram = Frame::new_checked(bytes)
+            .ok()
+            .and_then(|f| ScanData::new_checked(f).ok())
+            .ok_or(ReplayError::Telegram(k))?;
+        controller
+            .load_scan(&telegram)
+            .map_err(|_| ReplayError::Telegram(k))?;
+        let t2 = board.counter_now();
+        let mut timer = StageTimer::new(board);
+        let frame = controller.localise(u32::from(telegram.header.scan_counter), &mut timer);
+        let t3 = board.counter_now();
+
+        let mut costs = timer.costs;
+        costs.add(BenchStage::Filter, t1 - t0);
+        costs.add(BenchStage::Scan, t2 - t1);
+        for (s, c) in report.stages.iter_mut().zip(costs.0) {
+            s.record(c);
+        }
+        let cost = t3 - t0;
+        report.end_to_end.record(cost);
+        if k > 0 {
+            report.tracking.record(cost);
+        }
+        if costs.total() > report.worst_scan.1.total() {
+            report.worst_scan = (k, costs);
+        }
+        let status = controller.localizer().status();
+        report.statuses[match status {
+            Status::Tracking => 0,
+            Status::Degenerate { .. } => 1,
+            _ => 2,
+        }] += 1;
+        defmt::info!(
+            "scan {=usize}: {} stages {} pose ({=f32}, {=f32}, {=f32}) truth ({=f32}, {=f32}, {=f32})",
+            k,
+            frame.status,
+            costs.0,
+            frame.x_m,
+            frame.y_m,
+            frame.theta_rad,
+            x,
+            y,
+            th
+        );
+        let err = loc_core::math::hypot(frame.x_m - x, frame.y_m - y);
+        if k >= SCAN_COUNT / 2 {
+            report.max_late_error_m = report.max_late_error_m.max(err);
+        }
+        report.final_error_m = err;
+        report.final_heading_error_rad =
+            loc_core::math::abs(loc_core::math::wrap_angle(frame.theta_rad - th));
+    }
+    Ok(report)
+}

@@ -1,0 +1,189 @@
+use super::*;
+use lidar_driver::recording::Recording;
+use lidar_driver::{ChannelRepr, CommandType, Dialect, Frame, ScanRepr};
+use loc_core::geometry::Pose2;
+
+/// Every scan telegram of a capture, as CoLa frames.
+fn capture_scans(name: &str) -> Vec<Vec<u8>> {
+    let rec = Recording::read_file(sick_captures::path(name)).unwrap();
+    rec.frames()
+        .frames
+        .iter()
+        .filter(|f| ScanData::new_checked(f.frame()).is_ok())
+        .map(|f| f.frame().as_bytes().to_vec())
+        .collect()
+}
+
+fn decode(bytes: &[u8]) -> ScanData<'_> {
+    ScanData::new_checked(Frame::new_checked(bytes).unwrap()).unwrap()
+}
+
+fn sensor() -> SensorSetup {
+    SensorSetup {
+        geometry: ScanGeometry::lms511(),
+        mounting: Pose2::IDENTITY,
+    }
+}
+
+#[test]
+fn real_lms511_scans_step_by_exactly_one_sixth_of_a_degree() {
+    let scans = capture_scans(sick_captures::LMS511_S2H);
+    assert_eq!(scans.len(), 174);
+    let mut scan = Scan::new();
+    for bytes in &scans {
+        let t = decode(bytes);
+        let layout = load_scan(&t, &sensor(), &mut scan).unwrap();
+        assert_eq!(
+            (
+                layout.start_angle_1e4_deg,
+                layout.step_1e4_deg,
+                layout.beams
+            ),
+            (-50_000, 1667, 1141)
+        );
+        // 25 Hz and 54 kHz in the header: 360° · 25 / 54000 = 1/6°.
+        let exact = layout.exact_step_1e4_deg().unwrap();
+        assert!((exact - 10_000.0 / 6.0).abs() < 1e-9, "{exact}");
+        // The last beam lands on 185°, not 185.04° as the rounded field would put it.
+        let last_deg = layout.beam_angle_rad(1140).to_degrees();
+        assert!((last_deg - 185.0).abs() < 1e-9, "{last_deg}");
+        assert_eq!(usize::from(scan.beams_received()), 1141);
+        assert!(scan.len() > 500, "{}", scan.len());
+    }
+    // Beam angles of the scan are the exact ones (f32).
+    let p = scan.points().last().unwrap();
+    let exact_rad = (-5.0 + f64::from(p.beam_index) / 6.0).to_radians();
+    assert!((f64::from(p.angle_rad) - exact_rad).abs() < 2e-6);
+}
+
+#[test]
+fn real_lms111_and_tim_scans_keep_a_step_their_header_agrees_with() {
+    for (name, count, start, step) in [
+        (sick_captures::LMS111_S2H, 175, -450_000, 5000),
+        (sick_captures::TIM_PCAPNG, 16, -450_000, 3333),
+    ] {
+        let scans = capture_scans(name);
+        assert_eq!(scans.len(), count, "{name}");
+        let mut scan = Scan::new();
+        for bytes in &scans {
+            let t = decode(bytes);
+            let layout = match load_scan(&t, &sensor(), &mut scan) {
+                Ok(l) => l,
+                Err(ScanInputError::TooManyBeams { .. }) => panic!("{name}: too many beams"),
+                Err(e) => panic!("{name}: {e}"),
+            };
+            assert_eq!(
+                (layout.start_angle_1e4_deg, layout.step_1e4_deg),
+                (start, step)
+            );
+            // Whatever the header says, the step used rounds to the telegram's field.
+            let used = layout.step_used_1e4_deg();
+            assert!((used - f64::from(step)).abs() <= 0.5, "{name}: {used}");
+        }
+    }
+}
+
+/// A synthetic telegram with one DIST1 channel.
+fn telegram(values: Vec<u16>, scale: f32, start: i32, step: u16, freqs: (u32, u32)) -> Vec<u8> {
+    let first = capture_scans(sick_captures::LMS511_S2H).remove(0);
+    let t = decode(&first);
+    let mut repr = ScanRepr::parse(&t);
+    repr.command_type = CommandType::Event;
+    repr.header.scan_frequency_1e2_hz = freqs.0;
+    repr.header.measurement_frequency_100hz = freqs.1;
+    repr.channels8.clear();
+    repr.channels16 = vec![ChannelRepr {
+        name: *b"DIST1",
+        scale_factor: scale,
+        scale_offset: 0.0,
+        start_angle_1e4_deg: start,
+        step_1e4_deg: step,
+        values,
+    }];
+    repr.to_vec(Dialect::ColaB).unwrap()
+}
+
+#[test]
+fn another_start_angle_and_step_are_taken_from_the_telegram() {
+    // 50 Hz at 1/3°, starting at +10°: 541 beams to 190°.
+    let bytes = telegram(vec![2000; 541], 1.0, 100_000, 3333, (5000, 540));
+    let mut scan = Scan::new();
+    let layout = load_scan(&decode(&bytes), &sensor(), &mut scan).unwrap();
+    assert_eq!(layout.beams, 541);
+    assert!((layout.step_used_1e4_deg() - 10_000.0 / 3.0).abs() < 1e-9);
+    let last = scan.points().last().unwrap();
+    assert!((f64::from(last.angle_rad).to_degrees() - 190.0).abs() < 1e-4);
+    assert!((scan.points()[0].angle_rad.to_degrees() - 10.0).abs() < 1e-5);
+}
+
+#[test]
+fn a_header_that_disagrees_with_the_channel_is_not_trusted() {
+    // 35 Hz at 0.25° would need 50.4 kHz; a header saying 54 kHz gives 0.2333°, which does
+    // not round to 2500: the channel's own step is used.
+    let bytes = telegram(vec![2000; 761], 1.0, -50_000, 2500, (3500, 540));
+    let layout = load_scan(&decode(&bytes), &sensor(), &mut Scan::new()).unwrap();
+    assert_eq!(layout.exact_step_1e4_deg(), None);
+    assert_eq!(layout.step_used_1e4_deg(), 2500.0);
+    // Unknown frequencies (0): the field.
+    let none = BeamLayout {
+        scan_frequency_1e2_hz: 0,
+        ..layout
+    };
+    assert_eq!(none.step_used_1e4_deg(), 2500.0);
+}
+
+#[test]
+fn scale_two_encodes_long_ranges_and_saturation_is_no_range() {
+    // 70 m at scale 2 is raw 35000; 0xFFFF is saturated, 0 no echo.
+    let bytes = telegram(vec![35_000, u16::MAX, 0, 1000], 2.0, 0, 10_000, (2500, 540));
+    let mut scan = Scan::new();
+    load_scan(&decode(&bytes), &sensor(), &mut scan).unwrap();
+    assert_eq!(scan.len(), 2);
+    assert!((scan.points()[0].range_m - 70.0).abs() < 1e-4);
+    assert!((scan.points()[1].range_m - 2.0).abs() < 1e-6);
+    let d = scan.dropped();
+    assert_eq!((d.saturated, d.no_echo), (1, 1));
+}
+
+#[test]
+fn too_many_beams_and_no_distance_channel_are_refused() {
+    let bytes = telegram(vec![1000; 1142], 1.0, -50_000, 1667, (2500, 540));
+    assert_eq!(
+        load_scan(&decode(&bytes), &sensor(), &mut Scan::new()),
+        Err(ScanInputError::TooManyBeams { beams: 1142 })
+    );
+    let first = capture_scans(sick_captures::LMS511_S2H).remove(0);
+    let mut repr = ScanRepr::parse(&decode(&first));
+    repr.channels16.clear();
+    let bytes = repr.to_vec(Dialect::ColaB).unwrap();
+    let e = load_scan(&decode(&bytes), &sensor(), &mut Scan::new()).unwrap_err();
+    assert_eq!(e, ScanInputError::NoDistanceChannel);
+    assert!(e.to_string().contains("LMDscandatacfg"));
+}
+
+proptest::proptest! {
+    #[test]
+    fn any_layout_numbers_give_a_step_that_rounds_to_the_field(
+        start in proptest::prelude::any::<i32>(),
+        step in proptest::prelude::any::<u16>(),
+        beams in proptest::prelude::any::<u16>(),
+        f_scan in proptest::prelude::any::<u32>(),
+        f_shot in proptest::prelude::any::<u32>(),
+    ) {
+        let l = BeamLayout {
+            start_angle_1e4_deg: start,
+            step_1e4_deg: step,
+            beams,
+            scan_frequency_1e2_hz: f_scan,
+            measurement_frequency_100hz: f_shot,
+        };
+        let used = l.step_used_1e4_deg();
+        proptest::prop_assert!(used.is_finite());
+        proptest::prop_assert!((used - f64::from(step)).abs() <= 0.5);
+        let g = l.geometry(0.7, 80.0);
+        proptest::prop_assert!(g.start_angle_rad.is_finite() && g.step_rad.is_finite());
+        let values = vec![1234u16; usize::from(beams).min(2000)];
+        let r = load_values(&l, values.iter().copied(), 1.0, 0.0, &sensor(), &mut Scan::new());
+        proptest::prop_assert_eq!(r.is_ok(), usize::from(beams) <= LMS511_MAX_BEAMS && values.len() <= LMS511_MAX_BEAMS);
+    }
+}

@@ -1,0 +1,71 @@
+//! [`LocalizerConfig`]: everything a [`super::Localizer`] is tuned by, and the wall range it
+//! derives from the prediction's uncertainty.
+
+use nalgebra::Matrix3;
+
+use super::largest_position_sd_m;
+use crate::filter::{OdometryNoise, UpdateConfig};
+use crate::matching::{MatchConfig, PrealignConfig};
+use crate::scan::SensorSetup;
+use crate::strip::StripConfig;
+
+/// Everything a [`super::Localizer`] is tuned by.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalizerConfig {
+    /// The scanner's beam layout and mounting on the vehicle. Informational for the
+    /// localizer (scans arrive as [`crate::scan::Scan`]s already in the vehicle frame); build scans with
+    /// the same setup.
+    pub sensor: SensorSetup,
+    /// Wall stripping.
+    pub strip: StripConfig,
+    /// Wall points kept for matching (landmark points are all kept).
+    pub max_wall_points: u16,
+    /// Wall points farther than `wall_range_scale_m2 / σ` are not matched, where σ is the
+    /// predicted position's largest standard deviation (metres; in a smooth tunnel the
+    /// along-tunnel one): with the position along the tunnel uncertain by σ, the stored
+    /// walls far ahead may bend where the scanned ones do not (or run straight where they
+    /// bend), and those points bias the lateral and heading fit. m².
+    pub wall_range_scale_m2: f32,
+    /// The wall range above never drops below this, metres (near walls fix the lateral
+    /// position and the heading).
+    pub min_wall_range_m: f32,
+    /// Along-tunnel pre-alignment on landmarks.
+    pub prealign: PrealignConfig,
+    /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
+    pub matching: MatchConfig,
+    /// Odometry noise model and step limits.
+    pub odometry: OdometryNoise,
+    /// Chi-square gate probability and measurement floor of the match update (which
+    /// directions a match observes is `matching`'s judgement).
+    pub update: UpdateConfig,
+}
+
+impl Default for LocalizerConfig {
+    fn default() -> Self {
+        Self {
+            sensor: SensorSetup::default(),
+            strip: StripConfig::default(),
+            max_wall_points: 100,
+            wall_range_scale_m2: 10.0,
+            min_wall_range_m: 15.0,
+            prealign: PrealignConfig::default(),
+            matching: MatchConfig::default(),
+            odometry: OdometryNoise::default(),
+            update: UpdateConfig::default(),
+        }
+    }
+}
+
+impl LocalizerConfig {
+    /// How far out wall points are matched for a prediction with position covariance
+    /// `covariance` (see [`LocalizerConfig::wall_range_scale_m2`]), metres;
+    /// `f32::INFINITY` when the prediction is certain (or the covariance is not finite).
+    pub fn wall_range_m(&self, covariance: &Matrix3<f32>) -> f32 {
+        let sd_m = largest_position_sd_m(covariance);
+        if sd_m > 0.0 && sd_m.is_finite() {
+            crate::math::max(self.wall_range_scale_m2 / sd_m, self.min_wall_range_m)
+        } else {
+            f32::INFINITY
+        }
+    }
+}
