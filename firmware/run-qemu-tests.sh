@@ -139,7 +139,7 @@ echo "     instructions executed; the instruction budget is the bench's, above)"
 # slower than the emulator's 25 Hz; instruction counts come from the bench above.
 HIL_SCANS=40
 host_target=${CARGO_TARGET_DIR:-$PWD/../target}
-if (cd .. && cargo build --release --quiet -p lidar-driver --bin lms5xx-emulator) \
+if (cd .. && cargo build --release --quiet -p lms5xx-emulator) \
   && FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller; then
   recording=$out_dir/scans_colab.bin
   "$host_target/release/lms5xx-emulator" --recording "$recording" --port 0 \

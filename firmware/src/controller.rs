@@ -193,7 +193,8 @@ impl PoseStatus {
             Status::Tracking => PoseStatus::Tracking,
             Status::Degenerate { .. } => PoseStatus::Degenerate,
             Status::NotInitialised => PoseStatus::NotInitialised,
-            Status::DeadReckoning | Status::MatchRejected { .. } => PoseStatus::OdometryOnly,
+            // Any other status (a newer loc-core's): the scan did not update the pose.
+            _ => PoseStatus::OdometryOnly,
         }
     }
 }
@@ -214,7 +215,7 @@ fn send<B: Board>(board: &mut B, frame: &PoseFrame) {
 pub fn wait_without_map<B: Board>(board: &mut B, error: &MapError) -> ! {
     defmt::error!(
         "no usable map in the map flash region: {}; not localising (flash a map file made by host-sim export-map, then reset)",
-        defmt::Display2Format(error)
+        error
     );
     let mut sequence = 0u32;
     let mut next_ms = board.now_ms();
@@ -261,10 +262,7 @@ pub fn run<B: Board>(
                             B::COUNTER_UNIT
                         );
                         if frame.status == PoseStatus::OdometryOnly {
-                            defmt::info!(
-                                "  scan not used: {}",
-                                defmt::Display2Format(&controller.localizer().status())
-                            );
+                            defmt::info!("  scan not used: {}", controller.localizer().status());
                         }
                         Some(frame)
                     }
@@ -275,7 +273,7 @@ pub fn run<B: Board>(
                 }
             }
             Event::Failed(e) => {
-                defmt::warn!("LMS session failed: {}", defmt::Display2Format(&e));
+                defmt::warn!("LMS session failed: {}", e);
                 None
             }
             Event::Idle => None,

@@ -2,7 +2,7 @@
 //! prints every session event and one line per scan, for a bounded time.
 //!
 //! ```text
-//! cargo run -p lidar-driver --bin lms5xx-emulator -- --recording REC --port 2112 &
+//! cargo run -p lms5xx-emulator -- --recording REC --port 2112 &
 //! cargo run -p lidar-driver --example lms5xx_client -- 127.0.0.1:2112 10
 //! ```
 

@@ -12,6 +12,7 @@ use crate::telegram::{CommandType, Telegram, TelegramError};
 
 /// `SCdevicestate`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceState {
     /// 0: still starting up (30–120 s after power-up); poll again.
     Busy,
@@ -43,6 +44,7 @@ impl DeviceState {
 
 /// Why `mLMPsetscancfg` refused a configuration (its `sAN` error byte).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ScanConfigError {
     /// 1: frequency not supported.
     Frequency,
@@ -161,6 +163,8 @@ pub enum Answer<'a> {
 
 /// Why a frame is not a valid answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum AnswerError {
     /// Not a telegram.
     Telegram(TelegramError),

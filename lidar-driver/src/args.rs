@@ -25,6 +25,8 @@ pub enum LenWidth {
 
 /// What went wrong reading one argument.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ArgErrorKind {
     /// The telegram ends before this value.
     Truncated,
@@ -42,6 +44,7 @@ pub enum ArgErrorKind {
 
 /// A failed argument read: what, and where (offset from the first frame byte).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ArgError {
     /// Byte offset from the first byte of the frame (the first `0x02`).
     pub offset: usize,
@@ -452,6 +455,8 @@ pub(crate) fn parse_number(tok: &[u8]) -> Option<(i64, bool)> {
 
 /// Why a telegram could not be written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum EmitError {
     /// The output buffer is too small; `needed` is a lower bound of the bytes required.
     BufferTooSmall {

@@ -33,6 +33,7 @@ pub(crate) mod field {
 
 /// The two CoLa dialects of SICK scanners.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Dialect {
     /// ASCII tokens between `0x02` and `0x03`.
     ColaA,
@@ -77,6 +78,8 @@ pub fn xor_checksum(bytes: &[u8]) -> u8 {
 
 /// Why a frame was dropped (by [`Frame::new_checked`] or the streaming framer).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum FrameError {
     /// CoLa-B checksum mismatch: the payload or the checksum byte was damaged in transit.
     /// The frame is dropped; the stream goes on with the next start marker.

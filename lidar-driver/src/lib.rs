@@ -14,9 +14,12 @@
 //! | `scan_repr` | owned scan ([`ScanRepr`], feature `alloc`) emitted as CoLa-A / CoLa-B |
 //! | `recording` | readers for raw streams, pcap, pcapng and SICK `.pcapng.json` (feature `std`) |
 //! | [`clock`] | the caller-given millisecond [`Clock`] of the session's time-outs |
-//! | [`transport`] | the re-connectable byte-stream contract ([`Transport`]); TCP and serial links (feature `std`) |
+//! | [`transport`] | the re-connectable byte-stream contract ([`Transport`]); TCP link (feature `std`), serial link (feature `serial`) |
 //! | [`session`] | poll-driven start-up sequence, readiness wait, scan stream, re-connect ([`Session`]) |
-//! | `emulator` | LMS5xx TCP / byte-stream emulator: both dialects, busy start-up, scan sources, faults (feature `std`) |
+//!
+//! Beside this crate, not burdening a user of the library: `lms5xx-emulator` (an emulated
+//! LMS5xx for tests, a library and a binary), `sick-dump` (a recording dumper) and
+//! `scan-input` (telegram to `loc-core` scan).
 //!
 //! ```
 //! use lidar_driver::{Framer, Answer, Dialect, Request};
@@ -49,8 +52,6 @@ pub mod transport;
 #[cfg(feature = "alloc")]
 mod scan_repr;
 
-#[cfg(feature = "std")]
-pub mod emulator;
 #[cfg(feature = "std")]
 pub mod recording;
 

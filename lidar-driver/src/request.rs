@@ -118,6 +118,7 @@ impl OutputRange {
 
 /// `mLMPsetscancfg` / `LMPscancfg`: scan frequency and one sector's resolution and range.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ScanConfig {
     /// Scan frequency, 1/100 Hz (2500 = 25 Hz).
     pub frequency_1e2_hz: u32,
@@ -297,6 +298,8 @@ pub enum Request<'a> {
 
 /// Why a frame is not a known request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum RequestError {
     /// Not a telegram.
     Telegram(TelegramError),

@@ -4,6 +4,7 @@ use core::fmt;
 
 /// An `sFA` error answer's code (CoLa-B u16 after `sFA` with no space; CoLa-A hex token).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SopasError {
     /// 1: the current access level may not do this.
     AccessDenied,

@@ -11,6 +11,7 @@ use crate::frame::{Dialect, Frame};
 
 /// The SOPAS command types (first three payload bytes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CommandType {
     /// `sRN`: read a variable (host → sensor).
     ReadRequest,
@@ -95,6 +96,8 @@ impl fmt::Display for CommandType {
 
 /// Why a frame's payload is not a telegram.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum TelegramError {
     /// The first three bytes are not one of the command types (`sRN`, `sAN`, …).
     UnknownCommandType,

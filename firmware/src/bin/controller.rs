@@ -56,7 +56,7 @@ fn main() -> ! {
     if let Some(e) = record_error {
         defmt::warn!(
             "start pose record unusable ({}): starting at the tunnel entrance",
-            defmt::Display2Format(&e)
+            e
         );
     }
     let map: &'static TunnelMap = map;

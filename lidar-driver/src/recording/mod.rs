@@ -71,6 +71,7 @@ pub struct Chunk {
 
 /// Why a recording could not be read.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum RecordingError {
     /// The file could not be read.
     Io(std::io::Error),

@@ -7,6 +7,8 @@ use crate::telegram::{CommandType, TelegramError};
 
 /// The fields of an `LMDscandata` telegram, in wire order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 #[allow(missing_docs)] // each variant is the field of the same name in the telegram notes
 pub enum ScanField {
     Version,
@@ -93,6 +95,8 @@ impl ScanField {
 
 /// Why a frame could not be decoded as `LMDscandata`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ScanError {
     /// The frame's payload is not a telegram.
     Telegram(TelegramError),

@@ -11,6 +11,7 @@ use super::step::Step;
 
 /// Which transport operation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum IoOp {
     /// Opening / re-opening the link.
     Connect,
@@ -23,6 +24,8 @@ pub enum IoOp {
 /// Why the session left a start-up attempt or a stream (then re-connects, or gives up after
 /// `max_failed_attempts`).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum SessionError {
     /// The transport failed.
     Transport {

@@ -11,6 +11,7 @@ use super::config::SessionConfig;
 /// One request/answer exchange of the start-up sequence (see the telegram notes, "Starting an
 /// LMS5xx"). Order: [`Step::FIRST_AFTER_PROBE`], then [`Step::next`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Step {
     /// `sRN SCdevicestate` in one dialect, to find which one the sensor speaks.
     Probe,

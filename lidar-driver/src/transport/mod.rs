@@ -1,5 +1,5 @@
 //! Byte transports for the session: the [`Transport`] contract (`no_std`) and, with feature
-//! `std`, TCP ([`TcpLink`]) and serial ([`SerialLink`]) implementations.
+//! `std`, TCP (`TcpLink`); with feature `serial`, a serial port (`SerialLink`).
 //!
 //! # Contract
 //! A transport is an `embedded-io` byte stream plus a way to re-open it:
@@ -19,12 +19,12 @@ use embedded_io::{Read, ReadReady, Write};
 
 #[cfg(feature = "std")]
 mod read_ahead;
-#[cfg(feature = "std")]
+#[cfg(feature = "serial")]
 mod serial;
 #[cfg(feature = "std")]
 mod tcp;
 
-#[cfg(feature = "std")]
+#[cfg(feature = "serial")]
 pub use serial::{SerialConfig, SerialLink};
 #[cfg(feature = "std")]
 pub use tcp::{TcpConfig, TcpLink, SICK_TCP_PORT};

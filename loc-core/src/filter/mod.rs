@@ -43,6 +43,8 @@ pub struct Ekf {
 
 /// Why a filter could not be created.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum FilterInitError {
     /// The pose has a NaN or infinite component: give a finite initial pose.
     NonFinitePose,

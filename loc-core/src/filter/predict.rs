@@ -112,6 +112,8 @@ impl OdometryNoise {
 
 /// Why an odometry increment was not applied (the state is left unchanged).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum OdometryRejection {
     /// A component (or its covariance) is NaN or infinite: check the odometry source.
     NonFinite,

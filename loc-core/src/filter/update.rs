@@ -81,6 +81,8 @@ pub struct UpdateReport {
 
 /// Why a match did not update the filter (the state is left unchanged).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum UpdateRejection {
     /// The match observes no direction: its information is below the threshold everywhere.
     NothingObserved,

@@ -6,6 +6,7 @@ use crate::math;
 
 /// A point or a vector in the plane, metres. The frame is given by the API that holds it.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Point2 {
     /// x coordinate, metres.
     pub x_m: f32,

@@ -79,6 +79,7 @@ impl GeneRange {
 
 /// Which gene failed validation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Gene {
     /// W.
     Width,

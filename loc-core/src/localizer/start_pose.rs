@@ -37,6 +37,7 @@ pub struct StartPose {
 
 /// Why bytes are not a usable start pose.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum StartPoseError {
     /// Erased flash or zeros: nothing was written. Use the default start.

@@ -9,6 +9,8 @@ use crate::matching::MatchError;
 
 /// Why the last scan did not update the pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum RejectReason {
     /// Too few points after stripping and selection.
     TooFewPoints {
@@ -109,6 +111,8 @@ impl fmt::Display for RejectReason {
 
 /// What the localizer knows after its last call.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum Status {
     /// No initial pose yet: call [`Localizer::initialise`].
     NotInitialised,

@@ -9,6 +9,7 @@ use super::WallSide;
 /// A fixed capacity of the stored map (a const generic of
 /// [`StoredMap`](super::StoredMap)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Capacity {
     /// Map segments (wall segments plus expanded landmark segments): `SEGMENTS`.
     Segments,
@@ -25,6 +26,8 @@ pub enum Capacity {
 
 /// Geometry the map refuses.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum GeometryError {
     /// A wall vertex is NaN or infinite.
     NonFiniteVertex {
@@ -79,6 +82,8 @@ pub enum GeometryError {
 /// Errors of building, loading ([`StoredMap::from_bytes`](super::StoredMap::from_bytes))
 /// and saving ([`StoredMap::to_slice`](super::StoredMap::to_slice)) a map.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum MapError {
     /// The bytes end early: the header or its payload needs `needed` bytes, `got` were given.
     Truncated {

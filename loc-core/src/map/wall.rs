@@ -10,6 +10,7 @@ use super::FeatureKind;
 /// One of the tunnel's two walls. Both wall polylines run in the direction of increasing
 /// chainage; the left wall is on the left looking that way.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WallSide {
     /// Left of the direction of increasing chainage.
     Left,

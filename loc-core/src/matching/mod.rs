@@ -83,6 +83,7 @@ pub const UNOBSERVED_VARIANCE: f32 = 1.0e6;
 
 /// Which matcher to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MatcherKind {
     /// Modified Hausdorff distance over the K best points (the paper's matcher).
     #[default]
@@ -198,6 +199,8 @@ pub struct MatchResult {
 
 /// Why a match failed.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum MatchError {
     /// Fewer input points than `min_points`: the scan saw too little (blocked, or the
     /// stripper found no walls); check the scan and the stripping tolerances.

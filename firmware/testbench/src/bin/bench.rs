@@ -75,7 +75,7 @@ fn main() -> ! {
     let map_cost = match replay::load_map(&board, map) {
         Ok(cost) => cost,
         Err(e) => {
-            defmt::error!("map failed to load: {}", defmt::Display2Format(&e));
+            defmt::error!("map failed to load: {}", e);
             fail()
         }
     };

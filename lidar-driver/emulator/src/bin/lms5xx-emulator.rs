@@ -17,11 +17,11 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, ValueEnum};
-use lidar_driver::emulator::{
-    DeviceIdentity, DialectMode, Emulator, EmulatorConfig, Faults, RecordingSource,
-};
 use lidar_driver::recording::Recording;
 use lidar_driver::Dialect;
+use lms5xx_emulator::{
+    DeviceIdentity, DialectMode, Emulator, EmulatorConfig, Faults, RecordingSource,
+};
 
 /// Dialect choice on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

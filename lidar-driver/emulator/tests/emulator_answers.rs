@@ -7,8 +7,8 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use lidar_driver::emulator::{Emulator, EmulatorConfig};
 use lidar_driver::{Answer, CommandType, Dialect, Framer, Request, SopasError, Telegram};
+use lms5xx_emulator::{Emulator, EmulatorConfig};
 
 use session_support::*;
 
@@ -203,8 +203,8 @@ fn busy_during_the_startup_delay() {
 
 #[test]
 fn identity_from_a_recording_is_what_that_sensor_answered() {
-    use lidar_driver::emulator::DeviceIdentity;
     use lidar_driver::recording::Recording;
+    use lms5xx_emulator::DeviceIdentity;
     let lms511 = Recording::read_file(capture(sick_captures::LMS511_JSON)).unwrap();
     assert_eq!(
         DeviceIdentity::from_recording(&lms511),

@@ -3,10 +3,10 @@
 
 use std::time::Duration;
 
-use crate::answer::Answer;
-use crate::frame::Dialect;
-use crate::recording::Recording;
-use crate::request::{OutputRange, ScanConfig, ScanDataConfig};
+use lidar_driver::answer::Answer;
+use lidar_driver::frame::Dialect;
+use lidar_driver::recording::Recording;
+use lidar_driver::request::{OutputRange, ScanConfig, ScanDataConfig};
 
 /// Which dialect the emulated device speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,7 +55,7 @@ impl DeviceIdentity {
                 start_1e4_deg: -50_000,
                 stop_1e4_deg: 1_850_000,
             },
-            scan_data: crate::session::SessionConfig::CAPTURE_SCAN_DATA,
+            scan_data: lidar_driver::session::SessionConfig::CAPTURE_SCAN_DATA,
             scan_config: ScanConfig {
                 frequency_1e2_hz: 2500,
                 sectors: 1,
@@ -63,7 +63,7 @@ impl DeviceIdentity {
                 start_1e4_deg: -50_000,
                 stop_1e4_deg: 1_850_000,
             },
-            field_of_view_1e4_deg: super::device::LMS511_FOV_1E4_DEG,
+            field_of_view_1e4_deg: crate::device::LMS511_FOV_1E4_DEG,
         }
     }
 
@@ -137,7 +137,7 @@ pub struct Faults {
 /// Emulator settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EmulatorConfig {
-    /// TCP port on 127.0.0.1; 0 = any free port (see [`super::Emulator::addr`]).
+    /// TCP port on 127.0.0.1; 0 = any free port (see [`crate::Emulator::addr`]).
     pub port: u16,
     /// Dialect behaviour.
     pub dialect: DialectMode,

@@ -9,10 +9,10 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use lidar_driver::emulator::{DialectMode, Emulator, EmulatorConfig};
 use lidar_driver::session::{Session, SessionConfig};
 use lidar_driver::transport::{SerialConfig, SerialLink};
 use lidar_driver::Dialect;
+use lms5xx_emulator::{DialectMode, Emulator, EmulatorConfig};
 
 use session_support::*;
 

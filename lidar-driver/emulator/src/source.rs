@@ -4,9 +4,9 @@
 use std::fmt;
 use std::path::Path;
 
-use crate::recording::{Recording, RecordingError};
-use crate::scan_repr::ScanRepr;
-use crate::scandata::ScanData;
+use lidar_driver::recording::{Recording, RecordingError};
+use lidar_driver::scandata::ScanData;
+use lidar_driver::ScanRepr;
 
 /// Supplies the scans the emulator streams, one per scan period.
 ///
@@ -71,7 +71,7 @@ impl RecordingSource {
             .filter_map(|f| ScanData::new_checked(f.frame()).ok())
             .map(|s| {
                 let mut r = ScanRepr::parse(&s);
-                r.command_type = crate::telegram::CommandType::Event;
+                r.command_type = lidar_driver::telegram::CommandType::Event;
                 r
             })
             .collect();

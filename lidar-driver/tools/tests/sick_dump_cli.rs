@@ -1,10 +1,9 @@
 //! The `sick-dump` binary on the real captures.
 
-mod common;
-
 use std::process::Command;
 
-use common::*;
+use sick_captures::path as capture;
+use sick_captures::*;
 
 fn run(args: &[&str]) -> (String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_sick-dump"))

@@ -5,9 +5,9 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use lidar_driver::clock::StdClock;
-use lidar_driver::emulator::RecordingSource;
 use lidar_driver::session::{Event, Session, SessionConfig, Timeouts};
 use lidar_driver::Transport;
+use lms5xx_emulator::RecordingSource;
 
 pub use sick_captures::path as capture;
 

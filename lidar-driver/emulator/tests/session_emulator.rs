@@ -7,10 +7,10 @@ use std::net::TcpListener;
 use std::time::{Duration, Instant};
 
 use lidar_driver::clock::StdClock;
-use lidar_driver::emulator::{DialectMode, Emulator, EmulatorConfig, Faults};
 use lidar_driver::session::{Event, IoOp, Phase, Session, SessionConfig, SessionError, Step};
 use lidar_driver::transport::{TcpConfig, TcpLink};
 use lidar_driver::{DeviceState, Dialect, SopasError};
+use lms5xx_emulator::{DialectMode, Emulator, EmulatorConfig, Faults};
 
 use session_support::*;
 
@@ -484,8 +484,8 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
 
 #[test]
 fn emulates_the_lms111_of_its_recording() {
-    use lidar_driver::emulator::{DeviceIdentity, RecordingSource};
     use lidar_driver::recording::Recording;
+    use lms5xx_emulator::{DeviceIdentity, RecordingSource};
     let rec = Recording::read_file(capture(sick_captures::LMS111_JSON)).unwrap();
     let emu = Emulator::start(
         EmulatorConfig {

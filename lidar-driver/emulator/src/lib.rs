@@ -17,7 +17,7 @@
 //! during the start-up delay everything but `SCdevicestate` gets `sFA 13` (busy).
 //!
 //! ```no_run
-//! use lidar_driver::emulator::{Emulator, EmulatorConfig, RecordingSource};
+//! use lms5xx_emulator::{Emulator, EmulatorConfig, RecordingSource};
 //! let source = RecordingSource::from_file("lms511_20210302_colab.pcapng.json").unwrap();
 //! let emu = Emulator::start(EmulatorConfig::default(), source).unwrap();
 //! println!("listening on {}", emu.addr().unwrap());
@@ -40,8 +40,8 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use crate::framer::Framer;
-use crate::scan_repr::ScanRepr;
+use lidar_driver::framer::Framer;
+use lidar_driver::ScanRepr;
 
 use device::{Connection, Settings, Verdict};
 use stats::StatsCell;

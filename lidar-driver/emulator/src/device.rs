@@ -1,18 +1,18 @@
 //! The emulated device's protocol logic for one connection: requests in, answers and scans
-//! out (no I/O here; [`super::serve`] moves the bytes).
+//! out (no I/O here; [`crate::serve`] moves the bytes).
 
 use std::time::{Duration, Instant};
 
-use crate::answer::{Answer, DeviceState};
-use crate::args::{ArgErrorKind, TelegramWriter};
-use crate::frame::{Dialect, Frame};
-use crate::request::{names, AccessLevel, EchoFilter, Request, RequestError, ScanConfig};
-use crate::scan_repr::ScanRepr;
-use crate::sopas_error::SopasError;
-use crate::telegram::{CommandType, Telegram};
+use lidar_driver::answer::{Answer, DeviceState};
+use lidar_driver::args::{ArgErrorKind, TelegramWriter};
+use lidar_driver::frame::{Dialect, Frame};
+use lidar_driver::request::{names, AccessLevel, EchoFilter, Request, RequestError, ScanConfig};
+use lidar_driver::sopas_error::SopasError;
+use lidar_driver::telegram::{CommandType, Telegram};
+use lidar_driver::ScanRepr;
 
-use super::config::{DialectMode, EmulatorConfig};
-use super::Shared;
+use crate::config::{DialectMode, EmulatorConfig};
+use crate::Shared;
 
 /// LMS511 frequency / resolution pairs (1/100 Hz, 1/10000°) within its 54 kHz shot rate.
 pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
@@ -29,8 +29,8 @@ pub(crate) const LMS511_FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
 /// Settings that outlive a connection (the device keeps them until power-off).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Settings {
-    pub(crate) output_range: crate::request::OutputRange,
-    pub(crate) scan_data: crate::request::ScanDataConfig,
+    pub(crate) output_range: lidar_driver::request::OutputRange,
+    pub(crate) scan_data: lidar_driver::request::ScanDataConfig,
     pub(crate) scan_config: ScanConfig,
     pub(crate) echo_filter: EchoFilter,
     /// `EIHstCola` written: applies to the next connections (with [`DialectMode::Only`]).
@@ -178,6 +178,8 @@ impl<'s> Connection<'s> {
                     _ => SopasError::InvalidData,
                 })
             }
+            // A request the parser cannot tell apart is data the device would not accept.
+            Err(_) => return Reply::Error(SopasError::InvalidData),
         };
         self.shared.stats.count(|s| s.requests += 1);
         let booting = self.booting(now);
@@ -374,7 +376,7 @@ impl<'s> Connection<'s> {
             let n = name[4].wrapping_sub(b'0');
             (1..=5).contains(&n) && cfg.output_channel & (1 << (n - 1)) != 0
         };
-        let keep = |c: &crate::scan_repr::ChannelRepr| match &c.name[..4] {
+        let keep = |c: &lidar_driver::ChannelRepr| match &c.name[..4] {
             b"DIST" => echo_on(&c.name),
             b"RSSI" => cfg.remission && echo_on(&c.name),
             _ => true,
@@ -412,8 +414,8 @@ enum Reply<'t> {
 fn check_scan_config(
     c: &ScanConfig,
     field_of_view_1e4_deg: (i32, i32),
-) -> Result<(), crate::answer::ScanConfigError> {
-    use crate::answer::ScanConfigError as E;
+) -> Result<(), lidar_driver::answer::ScanConfigError> {
+    use lidar_driver::answer::ScanConfigError as E;
     let freq_ok = LMS511_SCAN_MODES
         .iter()
         .any(|&(f, _)| f == c.frequency_1e2_hz);
@@ -469,31 +471,31 @@ mod tests {
         c.step_1e4_deg = 1667;
         assert_eq!(
             check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(crate::answer::ScanConfigError::Resolution)
+            Err(lidar_driver::answer::ScanConfigError::Resolution)
         );
         c.frequency_1e2_hz = 6000;
         assert_eq!(
             check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(crate::answer::ScanConfigError::Frequency)
+            Err(lidar_driver::answer::ScanConfigError::Frequency)
         );
         c.step_1e4_deg = 1234;
         assert_eq!(
             check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(crate::answer::ScanConfigError::FrequencyAndResolution)
+            Err(lidar_driver::answer::ScanConfigError::FrequencyAndResolution)
         );
         c.frequency_1e2_hz = 2500;
         c.step_1e4_deg = 1667;
         c.stop_1e4_deg = 2_000_000;
         assert_eq!(
             check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(crate::answer::ScanConfigError::Area)
+            Err(lidar_driver::answer::ScanConfigError::Area)
         );
     }
 
     mod props {
-        use super::super::super::{EmulatorConfig, Shared};
         use super::*;
-        use crate::framer::Framer;
+        use crate::{EmulatorConfig, Shared};
+        use lidar_driver::framer::Framer;
         use proptest::prelude::*;
 
         fn shared() -> Shared {
@@ -527,7 +529,7 @@ mod tests {
                     let mut f = vec![2, 2, 2, 2];
                     f.extend_from_slice(&(text.len() as u32).to_be_bytes());
                     f.extend_from_slice(text.as_bytes());
-                    f.push(crate::frame::xor_checksum(text.as_bytes()));
+                    f.push(lidar_driver::frame::xor_checksum(text.as_bytes()));
                     input.extend_from_slice(&f);
                 } else {
                     input.push(2);
