@@ -9,8 +9,8 @@
 
 use core::fmt;
 
+use crate::command::CommandType;
 use crate::frame::{xor_checksum, Dialect, COLA_B_HEADER_LEN, ETX, STX};
-use crate::telegram::CommandType;
 
 /// Width of a string's length prefix in CoLa-B (u16 is SOPAS' rule; some fields in some
 /// firmware use a u8).

@@ -6,7 +6,8 @@
 //! |---|---|
 //! | [`frame`] | one checked frame ([`Frame`]), dialects, the CoLa-B checksum |
 //! | [`framer`] | streaming [`Framer`]: bytes in any chunking → frames, resync, [`FramerStats`] |
-//! | [`telegram`] | [`Telegram`]: command type ([`CommandType`]), name, argument bytes |
+//! | [`command`] | [`CommandType`]: `sRN` … `sFA` |
+//! | [`telegram`] | [`Telegram`]: command type, name, argument bytes |
 //! | [`args`] | typed argument reader/writer for both dialects ([`ArgReader`], [`TelegramWriter`]) |
 //! | [`request`] | host requests of the start-up sequence: encoder and parser ([`Request`]) |
 //! | [`answer`] | sensor answers, typed ([`Answer`]); `sFA` codes in [`sopas_error`] |
@@ -40,6 +41,7 @@ extern crate alloc;
 pub mod answer;
 pub mod args;
 pub mod clock;
+pub mod command;
 pub mod frame;
 pub mod framer;
 pub mod request;

@@ -8,6 +8,9 @@ use lidar_driver::frame::Dialect;
 use lidar_driver::recording::Recording;
 use lidar_driver::request::{OutputRange, ScanConfig, ScanDataConfig};
 
+/// The LMS511's field of view, 1/10000° (−5° … +185°).
+pub(crate) const LMS511_FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
+
 /// Which dialect the emulated device speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DialectMode {
@@ -63,7 +66,7 @@ impl DeviceIdentity {
                 start_1e4_deg: -50_000,
                 stop_1e4_deg: 1_850_000,
             },
-            field_of_view_1e4_deg: crate::device::LMS511_FOV_1E4_DEG,
+            field_of_view_1e4_deg: LMS511_FOV_1E4_DEG,
         }
     }
 

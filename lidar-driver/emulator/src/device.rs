@@ -23,9 +23,6 @@ pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
     (10000, 6667),
 ];
 
-/// LMS511 field of view, 1/10000° (−5°…185°).
-pub(crate) const LMS511_FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
-
 /// Settings that outlive a connection (the device keeps them until power-off).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Settings {
@@ -457,6 +454,7 @@ fn corrupt(d: Dialect, frame: &mut [u8]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::LMS511_FOV_1E4_DEG;
 
     #[test]
     fn lms511_scan_modes_are_checked() {
