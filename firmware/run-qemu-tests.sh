@@ -33,22 +33,13 @@ if ! command -v defmt-print >/dev/null 2>&1; then
   cargo install defmt-print --locked --version "$DEFMT_PRINT_VERSION" --quiet || exit 1
 fi
 
-# Runs ELF under QEMU with the instruction-counting clock, UART0 captured to $2, and prints
-# the decoded defmt log. Status: the firmware's semihosting exit (0 ok, 1 failure), 124 timeout.
-# Extra QEMU arguments may follow (e.g. a map file loaded into the map flash region).
+# Runs ELF under QEMU (qemu-run.sh: instruction-counting clock, the recorded map and start
+# pose in the map flash region) with UART0 captured to $2, and prints the decoded defmt log.
+# Status: the firmware's semihosting exit (0 ok, 1 failure), 124 time-out.
 run_qemu() {
   local elf=$1 uart=$2
   shift 2
-  timeout "$QEMU_TIMEOUT_S" qemu-system-arm \
-    -machine mps2-an386 -nographic \
-    -semihosting-config enable=on,target=native \
-    -icount shift=0 \
-    -serial "file:$uart" \
-    "$@" \
-    -kernel "$elf" >"$work/raw.defmt"
-  local status=$?
-  defmt-print -e "$elf" <"$work/raw.defmt" || status=${status:-1}
-  return $status
+  QEMU_SERIAL="file:$uart" ./qemu-run.sh "$elf" "$@"
 }
 
 echo "--> build (release, thumbv7em-none-eabihf, board mps2-an386: product and testbench)"
@@ -75,7 +66,7 @@ flash_map=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
 
 echo "--> selftest under QEMU"
 if [ -x "$elf_dir/selftest" ]; then
-  run_qemu "$elf_dir/selftest" "$work/uart0.bin" "${flash_map[@]}" | tee "$work/selftest.log"
+  run_qemu "$elf_dir/selftest" "$work/uart0.bin" | tee "$work/selftest.log"
   status=${PIPESTATUS[0]}
   # The test binary's own counts become part of this script's count.
   read -r st_pass st_fail < <(grep -E '^[0-9]+ passed, [0-9]+ failed$' "$work/selftest.log" \

@@ -399,19 +399,8 @@ mod tests {
     #[test]
     fn runs_are_deterministic_for_a_seed() {
         let s = named("paper-10m").unwrap();
-        let world = s.build_world().unwrap();
-        let a = run(
-            &s,
-            &world,
-            &mut OdometryOnly::default(),
-            &RunOptions::default(),
-        );
-        let b = run(
-            &s,
-            &world,
-            &mut OdometryOnly::default(),
-            &RunOptions::default(),
-        );
+        let a = crate::session::odometry_run(&s);
+        let b = crate::session::odometry_run(&s);
         assert_eq!(a.samples.len(), b.samples.len());
         for (x, y) in a.samples.iter().zip(&b.samples) {
             assert_eq!((x.truth, x.estimate), (y.truth, y.estimate));

@@ -267,22 +267,23 @@ mod tests {
         assert_eq!(ScanRate::Hz100.beam_count(), 286);
     }
 
+    /// Walls at y = ±2 m from x = −1 m to `length_m`, closed at the far end if `closed`.
+    fn corridor(length_m: f64, closed: bool) -> SegmentGrid {
+        let wall = |a, b, surface| WorldSegment { a, b, surface };
+        let mut walls = vec![
+            wall((-1.0, 2.0), (length_m, 2.0), Surface::LeftWall),
+            wall((-1.0, -2.0), (length_m, -2.0), Surface::RightWall),
+        ];
+        if closed {
+            walls.push(wall((length_m, -2.0), (length_m, 2.0), Surface::LeftWall));
+        }
+        SegmentGrid::new(walls, 1.0)
+    }
+
     #[test]
     fn corridor_scan_noise_mount_and_no_echo() {
         // Two walls at y = ±2 m from x = -1 to 50 m: beams ahead past 50 m see nothing.
-        let walls = vec![
-            WorldSegment {
-                a: (-1.0, 2.0),
-                b: (50.0, 2.0),
-                surface: Surface::LeftWall,
-            },
-            WorldSegment {
-                a: (-1.0, -2.0),
-                b: (50.0, -2.0),
-                surface: Surface::RightWall,
-            },
-        ];
-        let grid = SegmentGrid::new(walls, 1.0);
+        let grid = corridor(50.0, false);
         let spec = LidarSpec {
             range_noise_m: 0.01,
             ..LidarSpec::default()
@@ -329,25 +330,8 @@ mod tests {
 
     #[test]
     fn echoes_beyond_65_m_are_encoded_at_scale_two_not_clamped() {
-        // A corridor open to 75 m ahead: the beams along it see its end wall at ~75 m.
-        let walls = vec![
-            WorldSegment {
-                a: (-1.0, 2.0),
-                b: (75.0, 2.0),
-                surface: Surface::LeftWall,
-            },
-            WorldSegment {
-                a: (-1.0, -2.0),
-                b: (75.0, -2.0),
-                surface: Surface::RightWall,
-            },
-            WorldSegment {
-                a: (75.0, -2.0),
-                b: (75.0, 2.0),
-                surface: Surface::LeftWall,
-            },
-        ];
-        let grid = SegmentGrid::new(walls, 1.0);
+        // A corridor closed 75 m ahead: the beams along it see its end wall at ~75 m.
+        let grid = corridor(75.0, true);
         let spec = LidarSpec {
             range_noise_m: 0.0,
             mount_x_m: 0.0,

@@ -69,6 +69,26 @@ pub struct Accuracy {
     pub final_position_error_m: f64,
 }
 
+/// Serialises an [`Accuracy`] with each key prefixed `odometry_` (the flat JSON of
+/// [`Metrics`]).
+mod odometry_prefix {
+    use serde::ser::{Error, SerializeMap};
+    use serde::Serializer;
+
+    pub fn serialize<S: Serializer>(a: &super::Accuracy, s: S) -> Result<S::Ok, S::Error> {
+        let serde_json::Value::Object(fields) =
+            serde_json::to_value(a).map_err(S::Error::custom)?
+        else {
+            return Err(S::Error::custom("accuracy is not a JSON object"));
+        };
+        let mut map = s.serialize_map(Some(fields.len()))?;
+        for (k, v) in fields {
+            map.serialize_entry(&format!("odometry_{k}"), &v)?;
+        }
+        map.end()
+    }
+}
+
 /// Position error RMS in one distance bin.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DistanceBin {
@@ -85,9 +105,11 @@ pub struct DistanceBin {
 /// All figures of a run.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Metrics {
-    /// Localiser accuracy.
+    /// Localiser accuracy (its keys unprefixed in JSON).
+    #[serde(flatten)]
     pub localizer: Accuracy,
-    /// Odometry-alone accuracy.
+    /// Odometry-alone accuracy (its keys prefixed `odometry_` in JSON).
+    #[serde(flatten, with = "odometry_prefix")]
     pub odometry: Accuracy,
     /// Number of scans processed.
     pub scans: usize,

@@ -9,15 +9,25 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::closed_loop::{RunLog, WorldSummary};
-use crate::metrics::{DistanceBin, Metrics};
+use crate::metrics::Metrics;
 
-/// Why output could not be written.
+/// Why an output file (CSV, JSON, plot, MCAP) could not be written.
 #[derive(Debug)]
 pub struct OutputError {
     /// The file or directory.
     pub path: PathBuf,
-    /// The OS error.
-    pub source: std::io::Error,
+    /// What went wrong (the OS's or the writer's message).
+    pub reason: String,
+}
+
+impl OutputError {
+    /// The error of writing `path`, for `reason`.
+    pub fn new(path: &Path, reason: impl fmt::Display) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            reason: reason.to_string(),
+        }
+    }
 }
 
 impl fmt::Display for OutputError {
@@ -26,7 +36,7 @@ impl fmt::Display for OutputError {
             f,
             "cannot write {}: {} (check that the directory is writable)",
             self.path.display(),
-            self.source
+            self.reason
         )
     }
 }
@@ -34,7 +44,9 @@ impl fmt::Display for OutputError {
 impl std::error::Error for OutputError {}
 
 /// The metrics of one run as one flat JSON object (the `--json` output and
-/// `metrics.json`). Lengths in metres, angles in radians, times in microseconds or seconds.
+/// `metrics.json`): the run's identity, the localiser's [`crate::metrics::Accuracy`] figures under their own
+/// names, odometry alone's under `odometry_…`, the rest of [`Metrics`], times and counts.
+/// Lengths in metres, angles in radians, times in microseconds or seconds.
 #[derive(Debug, Clone, Serialize)]
 pub struct MetricsJson {
     /// Scenario name.
@@ -49,56 +61,9 @@ pub struct MetricsJson {
     pub estimator: String,
     /// Seed.
     pub seed: u64,
-    /// Localiser position RMS, metres.
-    pub position_rms_m: f64,
-    /// Localiser heading RMS, radians.
-    pub heading_rms_rad: f64,
-    /// Eq. 2 MSE (m² + rad²).
-    pub mse_eq2: f64,
-    /// Square root of eq. 2.
-    pub rms_eq2: f64,
-    /// Largest localiser position error, metres.
-    pub max_position_error_m: f64,
-    /// Localiser along-tunnel RMS, metres.
-    pub along_rms_m: f64,
-    /// Localiser across-tunnel RMS, metres.
-    pub across_rms_m: f64,
-    /// Largest along-tunnel error, metres.
-    pub max_along_error_m: f64,
-    /// Localiser position RMS over the first 100 m, metres.
-    pub first_100m_position_rms_m: f64,
-    /// Localiser position RMS over the last 100 m, metres.
-    pub last_100m_position_rms_m: f64,
-    /// Localiser position error at the end, metres.
-    pub final_position_error_m: f64,
-    /// Odometry-alone position RMS, metres.
-    pub odometry_position_rms_m: f64,
-    /// Odometry-alone heading RMS, radians.
-    pub odometry_heading_rms_rad: f64,
-    /// Odometry-alone eq. 2 MSE.
-    pub odometry_mse_eq2: f64,
-    /// Odometry-alone along-tunnel RMS, metres.
-    pub odometry_along_rms_m: f64,
-    /// Odometry-alone across-tunnel RMS, metres.
-    pub odometry_across_rms_m: f64,
-    /// Odometry-alone largest position error, metres.
-    pub odometry_max_position_error_m: f64,
-    /// Odometry-alone position error at the end, metres.
-    pub odometry_final_position_error_m: f64,
-    /// Odometry's distance error RMS (dead-reckoned path length minus true), metres.
-    pub odometry_distance_error_rms_m: f64,
-    /// Odometry's distance error at the end, metres.
-    pub odometry_distance_error_final_m: f64,
-    /// Scans processed.
-    pub scans: usize,
-    /// Distance driven, metres.
-    pub distance_m: f64,
-    /// Simulated time, seconds.
-    pub sim_time_s: f64,
-    /// Mean localiser time per scan, microseconds.
-    pub mean_us_per_scan: f64,
-    /// Largest localiser time per scan, microseconds.
-    pub max_us_per_scan: f64,
+    /// The figures (localiser accuracy flat, odometry's with the `odometry_` prefix).
+    #[serde(flatten)]
+    pub metrics: Metrics,
     /// Wall-clock time of the run, seconds.
     pub wall_time_s: f64,
     /// Of which ray casting, seconds.
@@ -116,14 +81,11 @@ pub struct MetricsJson {
     pub world: WorldSummary,
     /// Count of scans per estimator status.
     pub status_counts: std::collections::BTreeMap<String, usize>,
-    /// Error against distance driven (10 m bins).
-    pub by_distance: Vec<DistanceBin>,
 }
 
 impl MetricsJson {
-    /// Flattens a run's metrics.
+    /// A run's metrics with its identity and times.
     pub fn new(log: &RunLog, m: &Metrics) -> Self {
-        let (l, o) = (&m.localizer, &m.odometry);
         let choice = log.scenario.landmark_choice().ok();
         let mut status_counts = std::collections::BTreeMap::new();
         for s in &log.statuses {
@@ -136,31 +98,7 @@ impl MetricsJson {
             matcher: log.scenario.localizer.matcher.name().into(),
             estimator: log.estimator.clone(),
             seed: log.scenario.seed,
-            position_rms_m: l.position_rms_m,
-            heading_rms_rad: l.heading_rms_rad,
-            mse_eq2: l.mse_eq2,
-            rms_eq2: l.rms_eq2,
-            max_position_error_m: l.max_position_error_m,
-            along_rms_m: l.along_rms_m,
-            across_rms_m: l.across_rms_m,
-            max_along_error_m: l.max_along_error_m,
-            first_100m_position_rms_m: l.first_100m_position_rms_m,
-            last_100m_position_rms_m: l.last_100m_position_rms_m,
-            final_position_error_m: l.final_position_error_m,
-            odometry_position_rms_m: o.position_rms_m,
-            odometry_heading_rms_rad: o.heading_rms_rad,
-            odometry_mse_eq2: o.mse_eq2,
-            odometry_along_rms_m: o.along_rms_m,
-            odometry_across_rms_m: o.across_rms_m,
-            odometry_max_position_error_m: o.max_position_error_m,
-            odometry_final_position_error_m: o.final_position_error_m,
-            odometry_distance_error_rms_m: m.odometry_distance_error_rms_m,
-            odometry_distance_error_final_m: m.odometry_distance_error_final_m,
-            scans: m.scans,
-            distance_m: m.distance_m,
-            sim_time_s: m.sim_time_s,
-            mean_us_per_scan: m.mean_us_per_scan,
-            max_us_per_scan: m.max_us_per_scan,
+            metrics: m.clone(),
             wall_time_s: log.wall_time_s,
             raycast_time_s: log.raycast_time_s,
             real_time_factor: log.real_time_factor(),
@@ -169,14 +107,14 @@ impl MetricsJson {
             scan_cpu_real_time_factor: log.scan_cpu_real_time_factor(),
             world: log.world,
             status_counts,
-            by_distance: m.by_distance.clone(),
         }
     }
 
     /// Adds the run's CPU time (from [`crate::session::run_scenario_timed`]).
     pub fn with_cpu_time(mut self, cpu_time_s: f64) -> Self {
         self.cpu_time_s = Some(cpu_time_s);
-        self.cpu_real_time_factor = (cpu_time_s > 0.0).then(|| self.sim_time_s / cpu_time_s);
+        self.cpu_real_time_factor =
+            (cpu_time_s > 0.0).then(|| self.metrics.sim_time_s / cpu_time_s);
         self
     }
 
@@ -223,10 +161,7 @@ fn write_file(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), OutputError> {
-    let err = |source| OutputError {
-        path: path.to_path_buf(),
-        source,
-    };
+    let err = |e| OutputError::new(path, e);
     let file = std::fs::File::create(path).map_err(err)?;
     let mut w = std::io::BufWriter::new(file);
     f(&mut w).map_err(err)?;
@@ -241,10 +176,7 @@ pub fn write_run(
     log: &RunLog,
     m: &Metrics,
 ) -> Result<Vec<PathBuf>, OutputError> {
-    std::fs::create_dir_all(dir).map_err(|source| OutputError {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(|e| OutputError::new(dir, e))?;
     let csv = dir.join(format!("{prefix}trajectories.csv"));
     write_file(&csv, |w| write_trajectories_csv(log, w))?;
     let json = dir.join(format!("{prefix}metrics.json"));
@@ -259,20 +191,13 @@ pub fn write_run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::closed_loop::{run, OdometryOnly, RunOptions};
     use crate::scenario::named::named;
     use crate::scenario::Scenario;
 
     #[test]
     fn writes_csv_json_and_a_scenario_that_reruns() {
         let s = named("paper-10m").unwrap();
-        let world = s.build_world().unwrap();
-        let log = run(
-            &s,
-            &world,
-            &mut OdometryOnly::default(),
-            &RunOptions::default(),
-        );
+        let log = crate::session::odometry_run(&s);
         let m = log.metrics();
         let dir = tempfile::tempdir().unwrap();
         let files = write_run(dir.path(), "", &log, &m).unwrap();

@@ -286,19 +286,12 @@ pub fn run_report(log: &RunLog, m: &Metrics) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::closed_loop::{run, OdometryOnly, RunOptions};
     use crate::scenario::named::named;
 
     #[test]
     fn table_has_every_row_and_aligned_columns() {
         let s = named("paper-10m").unwrap();
-        let world = s.build_world().unwrap();
-        let log = run(
-            &s,
-            &world,
-            &mut OdometryOnly::default(),
-            &RunOptions::default(),
-        );
+        let log = crate::session::odometry_run(&s);
         let m = log.metrics();
         let text = run_report(&log, &m);
         assert!(text.contains("paper-10m") && text.contains("landmarks P1"));

@@ -73,6 +73,19 @@ pub fn run_scenario(
     }
 }
 
+/// Odometry alone over `scenario` with default options (tests of the outputs and reports).
+#[cfg(test)]
+pub(crate) fn odometry_run(scenario: &Scenario) -> RunLog {
+    match run_scenario(
+        scenario,
+        EstimatorChoice::OdometryOnly,
+        &RunOptions::default(),
+    ) {
+        Ok(log) => log,
+        Err(e) => panic!("{e}"),
+    }
+}
+
 /// Runs `scenario` like [`run_scenario`] and also returns the CPU time of the whole run
 /// (world, map, vehicle, lidar and estimator on this thread), seconds: the figure for
 /// "faster than real time on one core", unaffected by other load on the machine.

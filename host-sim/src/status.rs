@@ -3,7 +3,9 @@
 
 use std::fmt;
 
+use loc_core::filter::UpdateRejection;
 use loc_core::localizer::{RejectReason, Status};
+use loc_core::matching::MatchError;
 use scan_input::ScanInputError;
 
 /// An estimator's status after one scan.
@@ -29,12 +31,17 @@ impl EstimatorStatus {
                 Status::Tracking => "tracking",
                 Status::Degenerate { .. } => "degenerate",
                 Status::MatchRejected { reason } => match reason {
-                    RejectReason::TooFewPoints { .. } => "rejected:too-few-points",
-                    RejectReason::TooFewAssociations { .. } => "rejected:too-few-associations",
-                    RejectReason::DidNotConverge { .. } => "rejected:no-convergence",
-                    RejectReason::FailedGate { .. } => "rejected:gate",
-                    RejectReason::NothingObserved => "rejected:nothing-observed",
-                    RejectReason::NonFinite => "rejected:non-finite",
+                    RejectReason::Match(e) => match e {
+                        MatchError::TooFewPoints { .. } => "rejected:too-few-points",
+                        MatchError::TooFewAssociations { .. } => "rejected:too-few-associations",
+                        MatchError::DidNotConverge { .. } => "rejected:no-convergence",
+                        _ => "rejected:non-finite",
+                    },
+                    RejectReason::Update(e) => match e {
+                        UpdateRejection::FailedGate { .. } => "rejected:gate",
+                        UpdateRejection::NothingObserved => "rejected:nothing-observed",
+                        _ => "rejected:non-finite",
+                    },
                     _ => "rejected:other",
                 },
                 _ => "other",
@@ -80,7 +87,7 @@ mod tests {
         assert!(t.is_tracking() && !t.is_rejected());
         assert_eq!(t.to_string(), "tracking");
         let r = EstimatorStatus::Localizer(Status::MatchRejected {
-            reason: RejectReason::NothingObserved,
+            reason: RejectReason::Update(UpdateRejection::NothingObserved),
         });
         assert!(r.is_rejected());
         assert_eq!(r.label(), "rejected:nothing-observed");

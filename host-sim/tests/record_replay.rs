@@ -43,10 +43,17 @@ fn assert_same_metrics(run: &Metrics, rep: &Metrics) {
     assert_same_accuracy("odometry", &run.odometry, &rep.odometry);
 }
 
-#[test]
-fn replaying_a_recorded_run_gives_the_runs_figures() {
+/// A localised run of `paper-10m` with `seed`, recorded into a temporary directory (with the
+/// files written).
+fn recorded_run(
+    seed: u64,
+) -> (
+    host_sim::closed_loop::RunLog,
+    tempfile::TempDir,
+    Vec<std::path::PathBuf>,
+) {
     let mut s = named("paper-10m").unwrap();
-    s.seed = 7;
+    s.seed = seed;
     let options = RunOptions {
         keep_scans: true,
         progress: None,
@@ -55,6 +62,12 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     let (_, map_file) = record::scenario_map(&s).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let written = record::write_recording(dir.path(), &log, &map_file).unwrap();
+    (log, dir, written)
+}
+
+#[test]
+fn replaying_a_recorded_run_gives_the_runs_figures() {
+    let (log, dir, written) = recorded_run(7);
     assert_eq!(written.len(), 8);
     for name in [
         files::SCANNER,
@@ -193,16 +206,7 @@ fn placeholder(dir: &std::path::Path) -> ReplaySources {
 fn a_recording_at_another_start_angle_is_localised_with_its_own_beam_angles() {
     use lidar_driver::{Dialect, Framer, ScanData, ScanRepr};
 
-    let mut s = named("paper-10m").unwrap();
-    s.seed = 3;
-    let options = RunOptions {
-        keep_scans: true,
-        progress: None,
-    };
-    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).unwrap();
-    let (_, map_file) = record::scenario_map(&s).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    record::write_recording(dir.path(), &log, &map_file).unwrap();
+    let (log, dir, _) = recorded_run(3);
 
     // Re-encode every telegram from beam 30 on: start −5° + 30 · 1/6° = 0°.
     let path = dir.path().join(files::SCANNER);

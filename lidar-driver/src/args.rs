@@ -569,15 +569,7 @@ impl<'a> TelegramWriter<'a> {
                 break;
             }
         }
-        let s = tmp.get(16 - n..).unwrap_or(&[]);
-        let end = self.pos + s.len();
-        let dst = self
-            .buf
-            .get_mut(self.pos..end)
-            .ok_or(EmitError::BufferTooSmall { needed: end })?;
-        dst.copy_from_slice(s);
-        self.pos = end;
-        Ok(())
+        self.put(tmp.get(16 - n..).unwrap_or(&[]))
     }
 
     fn unsigned(&mut self, v: u64, bytes: usize) -> Result<(), EmitError> {
@@ -796,25 +788,16 @@ mod tests {
     #[test]
     fn writer_both_dialects() {
         let mut buf = [0u8; 64];
-        let mut w = TelegramWriter::begin(
-            Dialect::ColaA,
-            &mut buf,
-            CommandType::MethodRequest,
-            "SetAccessMode",
-        )
-        .unwrap();
-        w.u8(3).unwrap().u32(0xF472_4744).unwrap();
-        let n = w.finish().unwrap();
+        let login = |dialect, buf: &mut [u8]| {
+            let mut w =
+                TelegramWriter::begin(dialect, buf, CommandType::MethodRequest, "SetAccessMode")
+                    .unwrap();
+            w.u8(3).unwrap().u32(0xF472_4744).unwrap();
+            w.finish().unwrap()
+        };
+        let n = login(Dialect::ColaA, &mut buf);
         assert_eq!(&buf[..n], b"\x02sMN SetAccessMode 3 F4724744\x03");
-        let mut w = TelegramWriter::begin(
-            Dialect::ColaB,
-            &mut buf,
-            CommandType::MethodRequest,
-            "SetAccessMode",
-        )
-        .unwrap();
-        w.u8(3).unwrap().u32(0xF472_4744).unwrap();
-        let n = w.finish().unwrap();
+        let n = login(Dialect::ColaB, &mut buf);
         assert_eq!(n, 32);
         assert_eq!(&buf[4..8], &[0, 0, 0, 0x17]);
         assert_eq!(buf[31], 0xB3);

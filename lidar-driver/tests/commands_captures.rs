@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use lidar_driver::{
-    Answer, DeviceState, Dialect, Frame, OutputRange, Request, ScanDataConfig, Telegram,
+    Answer, DeviceState, Dialect, Frame, OutputRange, Request, SessionConfig, Telegram,
 };
 
 #[test]
@@ -52,18 +52,9 @@ fn captured_requests_have_the_expected_types() {
             stop_1e4_deg: 1_850_000
         })
     );
-    assert!(reqs.contains(&Request::SetScanDataConfig(ScanDataConfig {
-        output_channel: 1,
-        remission: true,
-        remission_16bit: false,
-        unit: 0,
-        encoder: 0,
-        position: false,
-        device_name: false,
-        comment: false,
-        time: true,
-        output_rate: 1
-    })));
+    assert!(reqs.contains(&Request::SetScanDataConfig(
+        SessionConfig::CAPTURE_SCAN_DATA
+    )));
     assert!(reqs.contains(&Request::StartMeasurement));
     assert!(reqs.contains(&Request::Run));
     assert!(reqs.contains(&Request::SUBSCRIBE_SCANS));

@@ -23,7 +23,7 @@ use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
 use loc_core::localizer::{Localizer, LocalizerConfig, Stage, StageObserver};
 use loc_core::map::TunnelMap;
-use loc_core::matching::{MatchConfig, MatcherKind};
+use loc_core::matching::MatcherKind;
 use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 use nalgebra::{Matrix3, Vector3};
@@ -93,13 +93,7 @@ impl StageObserver for StageClock {
 fn stages(c: &mut Criterion) {
     let f = fixture();
     for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
-        let config = LocalizerConfig {
-            matching: MatchConfig {
-                matcher,
-                ..MatchConfig::default()
-            },
-            ..LocalizerConfig::default()
-        };
+        let config = LocalizerConfig::with_matcher(matcher);
         let fresh =
             || Box::new(Localizer::new(&*f.map, config, f.predicted, prior()).expect("init"));
         let mut probe = fresh();

@@ -151,6 +151,13 @@ pub fn min(a: f32, b: f32) -> f32 {
     }
 }
 
+/// A count as the `u16` the core's reports use, saturating at `u16::MAX` (counts are bounded
+/// by the fixed capacities, so this never clips in practice).
+#[inline]
+pub fn saturating_u16<T: TryInto<u16>>(count: T) -> u16 {
+    count.try_into().unwrap_or(u16::MAX)
+}
+
 /// Wraps an angle in radians into `(-π, π]`.
 ///
 /// Non-finite input is returned unchanged (the caller's validity checks reject it).

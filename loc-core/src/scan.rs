@@ -401,7 +401,7 @@ impl Scan {
                     vehicle: mount.apply(Point2::new(range_m * unit.x_m, range_m * unit.y_m)),
                     angle_rad,
                     range_m,
-                    beam_index: u16::try_from(index).unwrap_or(u16::MAX),
+                    beam_index: crate::math::saturating_u16(index),
                 };
                 if points.push(point).is_err() {
                     count(&mut dropped.over_capacity);

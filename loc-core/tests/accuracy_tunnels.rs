@@ -163,13 +163,7 @@ fn check_with_landmarks(curved: bool) {
             );
             assert_within(&t, r.pose, truth, &format!("{matcher:?} match at s = {s}"));
 
-            let config = LocalizerConfig {
-                matching: MatchConfig {
-                    matcher,
-                    ..MatchConfig::default()
-                },
-                ..LocalizerConfig::default()
-            };
+            let config = LocalizerConfig::with_matcher(matcher);
             let mut loc = Box::new(Localizer::new(&*t.map, config, guess, initial_cov()).unwrap());
             let status = loc.update_scan(&scan);
             assert_eq!(status, Status::Tracking, "{matcher:?} at {s}");
@@ -195,13 +189,7 @@ fn check_without_landmarks(curved: bool) {
         let guess = t.pose(s + 0.5, 0.2, 0.02 + 3f32.to_radians());
         let scan = t.scan(truth, 200 + k as u64);
         for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
-            let config = LocalizerConfig {
-                matching: MatchConfig {
-                    matcher,
-                    ..MatchConfig::default()
-                },
-                ..LocalizerConfig::default()
-            };
+            let config = LocalizerConfig::with_matcher(matcher);
             let mut loc = Box::new(Localizer::new(&*t.map, config, guess, initial_cov()).unwrap());
             let status = loc.update_scan(&scan);
             let Status::Degenerate {
@@ -276,13 +264,7 @@ fn drives_through_the_landmark_tunnel() {
     let t = Tunnel::new(true, true);
     for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
         let mut truth = t.pose(200.0, 0.2, 0.0);
-        let config = LocalizerConfig {
-            matching: MatchConfig {
-                matcher,
-                ..MatchConfig::default()
-            },
-            ..LocalizerConfig::default()
-        };
+        let config = LocalizerConfig::with_matcher(matcher);
         let mut loc =
             Box::new(Localizer::new(&*t.map, config, truth, initial_cov() * 0.01).unwrap());
         let (mut sum_sq, mut worst, mut worst_heading) = (0.0f32, 0.0f32, 0.0f32);

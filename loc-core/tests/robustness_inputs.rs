@@ -29,13 +29,7 @@ fn map() -> &'static TunnelMap {
 }
 
 fn localizer(matcher: MatcherKind) -> Box<Localizer<'static, TunnelMap>> {
-    let config = LocalizerConfig {
-        matching: MatchConfig {
-            matcher,
-            ..MatchConfig::default()
-        },
-        ..LocalizerConfig::default()
-    };
+    let config = LocalizerConfig::with_matcher(matcher);
     let cov = Matrix3::from_diagonal(&Vector3::new(0.25, 0.01, 0.003));
     Box::new(Localizer::new(map(), config, Pose2::new(50.0, 0.0, 0.0), cov).unwrap())
 }

@@ -24,3 +24,14 @@ pub fn run(iterations: u32) {
         );
     }
 }
+
+/// Iterations of the calibration loop (4 instructions each): 1 M instructions.
+pub const CALIBRATION_ITERATIONS: u32 = 250_000;
+
+/// Runs the calibration loop on `board`: `(instructions executed, counter difference)`.
+pub fn calibrate<B: firmware::board::Board>(board: &B) -> (u64, u64) {
+    let expected = u64::from(CALIBRATION_ITERATIONS) * INSTRUCTIONS_PER_ITERATION;
+    let t0 = board.counter_now();
+    run(CALIBRATION_ITERATIONS);
+    (expected, board.counter_now() - t0)
+}

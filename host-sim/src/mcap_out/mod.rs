@@ -16,9 +16,8 @@
 pub mod schemas;
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::io::BufWriter;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use mcap::records::MessageHeader;
 use serde_json::{json, Value};
@@ -54,26 +53,7 @@ pub const VEHICLE_FRAME: &str = "vehicle";
 pub const TRUTH_FRAME: &str = "vehicle_truth";
 
 /// Why the MCAP file could not be written.
-#[derive(Debug)]
-pub struct McapOutError {
-    /// The file.
-    pub path: PathBuf,
-    /// What went wrong.
-    pub reason: String,
-}
-
-impl fmt::Display for McapOutError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "cannot write {}: {} (check that the directory is writable)",
-            self.path.display(),
-            self.reason
-        )
-    }
-}
-
-impl std::error::Error for McapOutError {}
+pub type McapOutError = crate::output::OutputError;
 
 fn stamp(t_s: f64) -> Value {
     let ns = (t_s.max(0.0) * 1e9).round() as u64;

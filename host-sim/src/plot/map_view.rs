@@ -5,6 +5,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::chart::{legend, swatch};
 use super::map_lines::MapLines;
 use super::style::{self, msg, FONT};
 use crate::metrics::Sample;
@@ -85,7 +86,7 @@ pub fn draw<DB: DrawingBackend>(
         .draw_series(LineSeries::new(lines.left_wall.iter().copied(), wall))
         .map_err(msg)?
         .label("walls")
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], wall));
+        .legend(swatch(wall));
     chart
         .draw_series(LineSeries::new(lines.right_wall.iter().copied(), wall))
         .map_err(msg)?;
@@ -95,8 +96,7 @@ pub fn draw<DB: DrawingBackend>(
             .draw_series(LineSeries::new(l.iter().copied(), lm))
             .map_err(msg)?;
         if i == 0 {
-            s.label("landmarks")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], lm));
+            s.label("landmarks").legend(swatch(lm));
         }
     }
     let series: [PathSeries; 3] = [
@@ -114,15 +114,8 @@ pub fn draw<DB: DrawingBackend>(
             .draw_series(LineSeries::new(samples.iter().map(pick), st))
             .map_err(msg)?
             .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], st));
+            .legend(swatch(st));
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 15))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()
-        .map_err(msg)?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft, 15)?;
     root.present().map_err(msg)
 }

@@ -8,13 +8,13 @@
 //!
 //! Drawn with `plotters` (bitmap and SVG backends) and an embedded font ([`style`]).
 
+pub mod chart;
 pub mod covariance_plot;
 pub mod error_plot;
 pub mod map_lines;
 pub mod map_view;
 pub mod style;
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 
 use plotters::coord::Shift;
@@ -24,26 +24,7 @@ use crate::closed_loop::RunLog;
 use map_lines::MapLines;
 
 /// Why a plot could not be written.
-#[derive(Debug)]
-pub struct PlotError {
-    /// The file.
-    pub path: PathBuf,
-    /// What went wrong (plotters' message).
-    pub reason: String,
-}
-
-impl fmt::Display for PlotError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "cannot draw {}: {} (check that the directory is writable)",
-            self.path.display(),
-            self.reason
-        )
-    }
-}
-
-impl std::error::Error for PlotError {}
+pub type PlotError = crate::output::OutputError;
 
 /// Image size of the map, pixels.
 pub const MAP_SIZE: (u32, u32) = (1600, 800);
@@ -117,7 +98,6 @@ pub fn write_plots(dir: &Path, log: &RunLog, lines: &MapLines) -> Result<Vec<Pat
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::closed_loop::{run, OdometryOnly, RunOptions};
     use crate::record::scenario_map;
     use crate::scenario::named::named;
 
@@ -125,13 +105,7 @@ mod tests {
     fn writes_png_and_svg_of_each_plot_with_text() {
         let mut s = named("paper-10m").unwrap();
         s.drive.end_m = s.drive.start_m + 3.0;
-        let world = s.build_world().unwrap();
-        let log = run(
-            &s,
-            &world,
-            &mut OdometryOnly::default(),
-            &RunOptions::default(),
-        );
+        let log = crate::session::odometry_run(&s);
         let (map, _) = scenario_map(&s).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let files = write_plots(dir.path(), &log, &MapLines::of(&map)).unwrap();

@@ -18,6 +18,13 @@ fn link_to(emu: &Emulator) -> TcpLink {
     TcpLink::new(emu.addr().expect("tcp emulator"), TcpConfig::default()).unwrap()
 }
 
+/// An emulator with `config` replaying the LMS511 capture, and a link to it.
+fn emulate(config: EmulatorConfig) -> (Emulator, TcpLink) {
+    let emu = Emulator::start(config, lms511_source()).unwrap();
+    let link = link_to(&emu);
+    (emu, link)
+}
+
 fn end_to_end(device_dialect: Dialect) {
     let src = lms511_source();
     let expected = recorded_values(&src);
@@ -92,19 +99,14 @@ fn cola_a_end_to_end_after_probe_fallback() {
 
 #[test]
 fn survives_dropped_connection_and_reinitialises() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            faults: Faults {
-                drop_after_scans: Some(10),
-                max_drops: Some(1),
-                ..Faults::default()
-            },
-            ..EmulatorConfig::default()
+    let (emu, mut link) = emulate(EmulatorConfig {
+        faults: Faults {
+            drop_after_scans: Some(10),
+            max_drops: Some(1),
+            ..Faults::default()
         },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+        ..EmulatorConfig::default()
+    });
     let mut session = Session::new(vec![0u8; 16 * 1024], fast_config());
     let seen = run(&mut session, &mut link, 25, Duration::from_secs(10));
     assert_eq!(seen.scans.len(), 25, "{:#?}", seen.log);
@@ -124,20 +126,15 @@ fn survives_dropped_connection_and_reinitialises() {
 
 #[test]
 fn garbage_and_corrupt_frames_do_not_stall_the_stream() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            rate_hz: 50.0,
-            faults: Faults {
-                garbage_every: Some(3),
-                corrupt_every: Some(4),
-                ..Faults::default()
-            },
-            ..EmulatorConfig::default()
+    let (emu, mut link) = emulate(EmulatorConfig {
+        rate_hz: 50.0,
+        faults: Faults {
+            garbage_every: Some(3),
+            corrupt_every: Some(4),
+            ..Faults::default()
         },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+        ..EmulatorConfig::default()
+    });
     let mut session = Session::new(vec![0u8; 16 * 1024], fast_config());
     let seen = run(&mut session, &mut link, 30, Duration::from_secs(10));
     assert_eq!(seen.scans.len(), 30, "{:#?}", seen.log);
@@ -153,15 +150,10 @@ fn garbage_and_corrupt_frames_do_not_stall_the_stream() {
 
 #[test]
 fn waits_out_a_busy_device_and_reports_it() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            startup_delay: Duration::from_millis(800),
-            ..EmulatorConfig::default()
-        },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+    let (_emu, mut link) = emulate(EmulatorConfig {
+        startup_delay: Duration::from_millis(800),
+        ..EmulatorConfig::default()
+    });
     let mut session = Session::new(vec![0u8; 16 * 1024], fast_config());
     let seen = run(&mut session, &mut link, 3, Duration::from_secs(10));
     assert_eq!(seen.scans.len(), 3, "{:#?}", seen.log);
@@ -177,15 +169,10 @@ fn waits_out_a_busy_device_and_reports_it() {
 
 #[test]
 fn a_device_that_stays_busy_is_reported_within_the_ready_timeout() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            startup_delay: Duration::from_secs(60),
-            ..EmulatorConfig::default()
-        },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+    let (_emu, mut link) = emulate(EmulatorConfig {
+        startup_delay: Duration::from_secs(60),
+        ..EmulatorConfig::default()
+    });
     let mut cfg = fast_config();
     cfg.timeouts.ready_ms = 600;
     cfg.max_failed_attempts = Some(1);
@@ -234,18 +221,13 @@ fn dead_port_gives_a_clear_error_within_its_timeout() {
 
 #[test]
 fn a_silent_device_fails_after_both_probes() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            faults: Faults {
-                silent: true,
-                ..Faults::default()
-            },
-            ..EmulatorConfig::default()
+    let (_emu, mut link) = emulate(EmulatorConfig {
+        faults: Faults {
+            silent: true,
+            ..Faults::default()
         },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+        ..EmulatorConfig::default()
+    });
     let mut cfg = fast_config();
     cfg.max_failed_attempts = Some(1);
     let mut session = Session::new(vec![0u8; 16 * 1024], cfg);
@@ -330,15 +312,10 @@ fn refusals_become_typed_errors() {
 #[test]
 fn scan_configuration_in_cola_a_is_applied() {
     // Users of the old driver could not set frequency/resolution in CoLa-A (issue 1).
-    let emu = Emulator::start(
-        EmulatorConfig {
-            dialect: DialectMode::Only(Dialect::ColaA),
-            ..EmulatorConfig::default()
-        },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+    let (emu, mut link) = emulate(EmulatorConfig {
+        dialect: DialectMode::Only(Dialect::ColaA),
+        ..EmulatorConfig::default()
+    });
     let cfg = SessionConfig {
         first_dialect: Dialect::ColaA,
         scan_config: Some(lidar_driver::ScanConfig {
@@ -404,15 +381,10 @@ fn recovers_from_a_sensor_power_cycle() {
 
 #[test]
 fn switches_a_cola_a_sensor_to_cola_b_with_a_reconnect() {
-    let emu = Emulator::start(
-        EmulatorConfig {
-            dialect: DialectMode::Only(Dialect::ColaA),
-            ..EmulatorConfig::default()
-        },
-        lms511_source(),
-    )
-    .unwrap();
-    let mut link = link_to(&emu);
+    let (emu, mut link) = emulate(EmulatorConfig {
+        dialect: DialectMode::Only(Dialect::ColaA),
+        ..EmulatorConfig::default()
+    });
     let cfg = SessionConfig {
         first_dialect: Dialect::ColaA,
         switch_dialect: Some(Dialect::ColaB),

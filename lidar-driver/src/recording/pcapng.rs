@@ -54,20 +54,21 @@ pub(crate) fn packets(b: &[u8], mut each: impl FnMut(&Packet<'_>)) -> Result<(),
         let body = b
             .get(at + 8..at + len - 4)
             .ok_or(bad(at, "pcapng block truncated"))?;
-        let u16_in = |p: usize| -> Option<u16> {
-            let s: [u8; 2] = body.get(p..p + 2)?.try_into().ok()?;
-            Some(if le {
-                u16::from_le_bytes(s)
-            } else {
-                u16::from_be_bytes(s)
-            })
-        };
+        // Fields of the block in the section's byte order.
         let u32_in = |p: usize| -> Option<u32> {
             let s: [u8; 4] = body.get(p..p + 4)?.try_into().ok()?;
             Some(if le {
                 u32::from_le_bytes(s)
             } else {
                 u32::from_be_bytes(s)
+            })
+        };
+        let u16_in = |p: usize| -> Option<u16> {
+            let s: [u8; 2] = body.get(p..p + 2)?.try_into().ok()?;
+            Some(if le {
+                u16::from_le_bytes(s)
+            } else {
+                u16::from_be_bytes(s)
             })
         };
         match btype {

@@ -316,14 +316,9 @@ impl Core {
                 self.stats.connects += 1;
                 self.clear_framer = true;
                 let d = self.dialect;
-                if let Err(e) = self.send(io, Step::Probe, d) {
-                    return Some(self.fail(io, now, e));
+                if let Err(e) = self.probe(io, now, d, false) {
+                    return Some(e);
                 }
-                self.state = State::Probe {
-                    dialect: d,
-                    sent_ms: now,
-                    other_tried: false,
-                };
                 self.pending = Some(Event::Probing(d));
                 Some(Event::Connected {
                     attempt: self.failed_attempts + 1,
@@ -350,14 +345,9 @@ impl Core {
                 }
                 self.clear_framer = true;
                 let d = other(dialect);
-                if let Err(e) = self.send(io, Step::Probe, d) {
-                    return Some(self.fail(io, now, e));
+                if let Err(e) = self.probe(io, now, d, true) {
+                    return Some(e);
                 }
-                self.state = State::Probe {
-                    dialect: d,
-                    sent_ms: now,
-                    other_tried: true,
-                };
                 Some(Event::Probing(d))
             }
             State::WaitReady {
@@ -460,6 +450,26 @@ impl Core {
     }
 
     /// Ends the attempt: closes the link, counts, and schedules the re-connect (or gives up).
+    /// Sends the dialect probe in `dialect` and waits for its answer (`other_tried`: the
+    /// other dialect was probed already); a failed send is the failure event.
+    fn probe<T: Transport>(
+        &mut self,
+        io: &mut T,
+        now: u64,
+        dialect: Dialect,
+        other_tried: bool,
+    ) -> Result<(), Event<'static>> {
+        if let Err(e) = self.send(io, Step::Probe, dialect) {
+            return Err(self.fail(io, now, e));
+        }
+        self.state = State::Probe {
+            dialect,
+            sent_ms: now,
+            other_tried,
+        };
+        Ok(())
+    }
+
     fn fail<T: Transport>(&mut self, io: &mut T, now: u64, error: SessionError) -> Event<'static> {
         io.close();
         self.clear_framer = true;

@@ -178,18 +178,22 @@ fn pump(
     log
 }
 
+/// A hand-driven clock at 0, a scripted transport and a session with `config`.
+fn fresh(config: SessionConfig) -> (Cell<u64>, Mock, Session<Vec<u8>>) {
+    (
+        Cell::new(0),
+        Mock::default(),
+        Session::new(vec![0u8; 4096], config),
+    )
+}
+
 #[test]
 fn full_start_up_then_streaming() {
-    let clock = Cell::new(0);
-    let mut io = Mock::default();
-    let mut s = Session::new(
-        vec![0u8; 4096],
-        SessionConfig {
-            scan_config: Some(SCAN_50HZ),
-            output_range: Some(RANGE),
-            ..cfg()
-        },
-    );
+    let (clock, mut io, mut s) = fresh(SessionConfig {
+        scan_config: Some(SCAN_50HZ),
+        output_range: Some(RANGE),
+        ..cfg()
+    });
     let log = pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
     assert_eq!(s.phase(), Phase::Streaming, "{log:#?}");
     assert_eq!(
@@ -269,15 +273,10 @@ fn busy_device_is_polled_and_reported_until_ready() {
 
 #[test]
 fn method_accepted_restarts_the_answer_timeout() {
-    let clock = Cell::new(0);
-    let mut io = Mock::default();
-    let mut s = Session::new(
-        vec![0u8; 4096],
-        SessionConfig {
-            scan_config: Some(SCAN_50HZ),
-            ..cfg()
-        },
-    );
+    let (clock, mut io, mut s) = fresh(SessionConfig {
+        scan_config: Some(SCAN_50HZ),
+        ..cfg()
+    });
     // Everything answered at once except mLMPsetscancfg, which only gets sMA.
     pump(&mut s, &mut io, &clock, |r| match r {
         Request::SetScanConfig(_) => Some(Answer::MethodAccepted(names::SET_SCAN_CONFIG)),
@@ -349,15 +348,10 @@ fn sfa_in_the_other_dialect_during_the_probe_reveals_the_dialect() {
 
 #[test]
 fn refused_step_is_a_typed_error_and_gives_up_when_configured() {
-    let clock = Cell::new(0);
-    let mut io = Mock::default();
-    let mut s = Session::new(
-        vec![0u8; 4096],
-        SessionConfig {
-            max_failed_attempts: Some(1),
-            ..cfg()
-        },
-    );
+    let (clock, mut io, mut s) = fresh(SessionConfig {
+        max_failed_attempts: Some(1),
+        ..cfg()
+    });
     let log = pump(&mut s, &mut io, &clock, |r| match r {
         Request::Run => Some(Answer::Error(SopasError::AccessDenied)),
         r => Some(ok_answer(r)),

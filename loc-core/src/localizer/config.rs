@@ -57,6 +57,13 @@ impl Default for LocalizerConfig {
 }
 
 impl LocalizerConfig {
+    /// The default configuration with `matcher` (Hausdorff or PL-ICP).
+    pub fn with_matcher(matcher: crate::matching::MatcherKind) -> Self {
+        let mut c = Self::default();
+        c.matching.matcher = matcher;
+        c
+    }
+
     /// How far out wall points are matched for a prediction with position covariance
     /// `covariance` (see [`LocalizerConfig::wall_range_scale_m2`]), metres;
     /// `f32::INFINITY` when the prediction is certain (or the covariance is not finite).

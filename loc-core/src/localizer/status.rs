@@ -7,104 +7,35 @@ use crate::filter::UpdateRejection;
 use crate::geometry::Point2;
 use crate::matching::MatchError;
 
-/// Why the last scan did not update the pose.
+/// Why the last scan did not update the pose: the matcher's or the filter's own reason.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum RejectReason {
-    /// Too few points after stripping and selection.
-    TooFewPoints {
-        /// Points available.
-        available: u16,
-        /// Points required.
-        required: u16,
-    },
-    /// Too few points near the map at the predicted pose.
-    TooFewAssociations {
-        /// Points associated.
-        associated: u16,
-        /// Points required.
-        required: u16,
-    },
-    /// The matcher did not converge.
-    DidNotConverge {
-        /// Iterations run.
-        iterations: u16,
-    },
-    /// The match disagreed with the prediction (squared Mahalanobis distance over the gate).
-    FailedGate {
-        /// Squared Mahalanobis distance.
-        mahalanobis_sq: f32,
-        /// Gate threshold.
-        threshold: f32,
-    },
-    /// The match observed no direction of the pose.
-    NothingObserved,
-    /// Non-finite data reached the matcher or the filter.
-    NonFinite,
+    /// The matcher found no pose (too few points or associations, no convergence,
+    /// non-finite input).
+    Match(MatchError),
+    /// The filter refused the match (the gate, nothing observed, non-finite).
+    Update(UpdateRejection),
 }
 
 impl From<MatchError> for RejectReason {
     fn from(e: MatchError) -> Self {
-        match e {
-            MatchError::TooFewPoints {
-                available,
-                required,
-            } => RejectReason::TooFewPoints {
-                available,
-                required,
-            },
-            MatchError::TooFewAssociations {
-                associated,
-                required,
-            } => RejectReason::TooFewAssociations {
-                associated,
-                required,
-            },
-            MatchError::DidNotConverge { iterations, .. } => {
-                RejectReason::DidNotConverge { iterations }
-            }
-            MatchError::NonFiniteInput => RejectReason::NonFinite,
-        }
+        RejectReason::Match(e)
     }
 }
 
 impl From<UpdateRejection> for RejectReason {
     fn from(e: UpdateRejection) -> Self {
-        match e {
-            UpdateRejection::NothingObserved => RejectReason::NothingObserved,
-            UpdateRejection::FailedGate {
-                mahalanobis_sq,
-                threshold,
-                ..
-            } => RejectReason::FailedGate {
-                mahalanobis_sq,
-                threshold,
-            },
-            UpdateRejection::NonFinite => RejectReason::NonFinite,
-        }
+        RejectReason::Update(e)
     }
 }
 
 impl fmt::Display for RejectReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            RejectReason::TooFewPoints { available, required } => {
-                write!(f, "too few scan points ({available} < {required})")
-            }
-            RejectReason::TooFewAssociations { associated, required } => write!(
-                f,
-                "too few points near the map ({associated} < {required}): prediction far off or outside the map"
-            ),
-            RejectReason::DidNotConverge { iterations } => {
-                write!(f, "matcher did not converge in {iterations} iterations")
-            }
-            RejectReason::FailedGate { mahalanobis_sq, threshold } => write!(
-                f,
-                "match failed the gate (Mahalanobis² {mahalanobis_sq} > {threshold})"
-            ),
-            RejectReason::NothingObserved => write!(f, "the scan observes no direction of the pose"),
-            RejectReason::NonFinite => write!(f, "non-finite data"),
+            RejectReason::Match(e) => write!(f, "{e}"),
+            RejectReason::Update(e) => write!(f, "{e}"),
         }
     }
 }

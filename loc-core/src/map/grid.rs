@@ -319,7 +319,7 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
         let _ = self.refs.resize(total, 0); // total ≤ REFS checked above
                                             // Pass 2: fill; `ends[i]` advances from the cell's start to its end.
         for (si, seg) in segments.iter().enumerate() {
-            let id = u16::try_from(si).unwrap_or(u16::MAX); // range checked above
+            let id = crate::math::saturating_u16(si); // range checked above
             let keys = &self.keys;
             let ends = &mut self.ends;
             let refs = &mut self.refs;

@@ -276,7 +276,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     /// Expands and appends one landmark; on error the map is unchanged.
     pub(crate) fn add_landmark(&mut self, placement: LandmarkPlacement) -> Result<u16, MapError> {
         let index = self.landmarks.len();
-        let id = u16::try_from(index).unwrap_or(u16::MAX);
+        let id = crate::math::saturating_u16(index);
         if index >= LANDMARKS || index > usize::from(u16::MAX) {
             return Err(MapError::CapacityExceeded {
                 what: Capacity::Landmarks,
@@ -324,7 +324,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         let landmark = MapLandmark {
             placement,
             frame,
-            first_segment: u16::try_from(first).unwrap_or(u16::MAX),
+            first_segment: crate::math::saturating_u16(first),
             segment_count: u8::try_from(count).unwrap_or(u8::MAX),
         };
         if self.landmarks.push(landmark).is_err() {

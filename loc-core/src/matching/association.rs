@@ -66,7 +66,7 @@ pub fn associate<M: MapQuery>(
             }
             _ => unpaired(world, gate_m),
         };
-        a.point = u16::try_from(i).unwrap_or(u16::MAX);
+        a.point = crate::math::saturating_u16(i);
     }
     found
 }
@@ -250,7 +250,7 @@ pub fn select_k_best(assoc: &[Association], keys: &mut [DistanceKey], k: usize) 
         return None;
     }
     for (i, (key, a)) in keys.iter_mut().zip(assoc.iter()).enumerate() {
-        *key = (a.distance_m, u16::try_from(i).unwrap_or(u16::MAX));
+        *key = (a.distance_m, crate::math::saturating_u16(i));
     }
     let keys = keys.get_mut(..n)?;
     let (_, nth, _) =

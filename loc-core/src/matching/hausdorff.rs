@@ -4,7 +4,7 @@
 
 use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
 use super::information::{truncated_step, NormalEquations};
-use super::{apply_step, step_size, KBest, MatchConfig, MatchError, Outcome};
+use super::{apply_step, conclude, step_size, KBest, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
 use crate::math;
@@ -52,8 +52,8 @@ pub(super) fn run<M: MapQuery>(
             if associated < required {
                 if best.is_none() {
                     return Err(MatchError::TooFewAssociations {
-                        associated: u16::try_from(associated).unwrap_or(u16::MAX),
-                        required: u16::try_from(required).unwrap_or(u16::MAX),
+                        associated: crate::math::saturating_u16(associated),
+                        required: crate::math::saturating_u16(required),
                     });
                 }
             } else {
@@ -80,8 +80,8 @@ pub(super) fn run<M: MapQuery>(
         };
         if (eq.count as usize) < required {
             return Err(MatchError::TooFewAssociations {
-                associated: u16::try_from(eq.count).unwrap_or(u16::MAX),
-                required: u16::try_from(required).unwrap_or(u16::MAX),
+                associated: crate::math::saturating_u16(eq.count),
+                required: crate::math::saturating_u16(required),
             });
         }
         let step = truncated_step(
@@ -99,23 +99,5 @@ pub(super) fn run<M: MapQuery>(
         }
         pose = apply_step(*best_pose, &step);
     }
-    let Some((pose, cost_m, equations)) = best else {
-        return Err(MatchError::TooFewAssociations {
-            associated: 0,
-            required: u16::try_from(required).unwrap_or(u16::MAX),
-        });
-    };
-    // A last step above 100× the tolerance means the iterations ran out mid-descent.
-    if last_step_m > 100.0 * math::max(config.convergence_translation_m, 1.0e-6) {
-        return Err(MatchError::DidNotConverge {
-            iterations,
-            last_step_m,
-        });
-    }
-    Ok(Outcome {
-        pose,
-        equations,
-        iterations,
-        cost_m,
-    })
+    conclude(best, iterations, last_step_m, required, config)
 }

@@ -4,7 +4,7 @@
 
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
-use super::{apply_step, step_size, MatchConfig, MatchError, Outcome};
+use super::{apply_step, conclude, step_size, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
 use crate::math;
@@ -39,8 +39,8 @@ pub(super) fn run<M: MapQuery>(
         }
         if (eq.count as usize) < required {
             return Err(MatchError::TooFewAssociations {
-                associated: u16::try_from(eq.count).unwrap_or(u16::MAX),
-                required: u16::try_from(required).unwrap_or(u16::MAX),
+                associated: crate::math::saturating_u16(eq.count),
+                required: crate::math::saturating_u16(required),
             });
         }
         let step = truncated_step(
@@ -60,22 +60,5 @@ pub(super) fn run<M: MapQuery>(
         // Outliers beyond 3× the current RMS drop out as the fit tightens.
         gate = (3.0 * rms).clamp(min_gate, gate);
     }
-    let Some((pose, cost_m, equations)) = last else {
-        return Err(MatchError::TooFewAssociations {
-            associated: 0,
-            required: u16::try_from(required).unwrap_or(u16::MAX),
-        });
-    };
-    if last_step_m > 100.0 * math::max(config.convergence_translation_m, 1.0e-6) {
-        return Err(MatchError::DidNotConverge {
-            iterations,
-            last_step_m,
-        });
-    }
-    Ok(Outcome {
-        pose,
-        equations,
-        iterations,
-        cost_m,
-    })
+    conclude(last, iterations, last_step_m, required, config)
 }

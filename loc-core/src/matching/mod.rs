@@ -302,7 +302,7 @@ pub fn match_scan<M: MapQuery>(
         return Err(MatchError::NonFiniteInput);
     }
     let required = config.min_points.max(3);
-    let available = u16::try_from(points.len()).unwrap_or(u16::MAX);
+    let available = crate::math::saturating_u16(points.len());
     if available < required {
         return Err(MatchError::TooFewPoints {
             available,
@@ -332,6 +332,36 @@ pub(crate) struct Outcome {
     equations: NormalEquations,
     iterations: u16,
     cost_m: f32,
+}
+
+/// How a matcher loop ends: its last accepted `(pose, cost, equations)` becomes the
+/// [`Outcome`]; none at all means nothing was associated; a last step above 100× the
+/// convergence tolerance means the iterations ran out mid-descent.
+pub(crate) fn conclude(
+    last: Option<(Pose2, f32, NormalEquations)>,
+    iterations: u16,
+    last_step_m: f32,
+    required: usize,
+    config: &MatchConfig,
+) -> Result<Outcome, MatchError> {
+    let Some((pose, cost_m, equations)) = last else {
+        return Err(MatchError::TooFewAssociations {
+            associated: 0,
+            required: crate::math::saturating_u16(required),
+        });
+    };
+    if last_step_m > 100.0 * crate::math::max(config.convergence_translation_m, 1.0e-6) {
+        return Err(MatchError::DidNotConverge {
+            iterations,
+            last_step_m,
+        });
+    }
+    Ok(Outcome {
+        pose,
+        equations,
+        iterations,
+        cost_m,
+    })
 }
 
 /// Adds the pose increment `step` `(dx_m, dy_m, dtheta_rad)` (world frame) to `pose`.
@@ -370,7 +400,7 @@ fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
         information,
         iterations: o.iterations,
         cost_m: o.cost_m,
-        inliers: u16::try_from(o.equations.count).unwrap_or(u16::MAX),
+        inliers: crate::math::saturating_u16(o.equations.count),
         degeneracy: degeneracy(&information, threshold, config.rotation_scale_m),
         observability: config.observability(),
     }

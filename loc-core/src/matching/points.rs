@@ -89,8 +89,8 @@ pub fn select_match_points<P: VehiclePoint>(
             }
         }
     }
-    counts.landmark = u16::try_from(landmarks).unwrap_or(u16::MAX);
-    counts.wall = u16::try_from(walls).unwrap_or(u16::MAX);
+    counts.landmark = crate::math::saturating_u16(landmarks);
+    counts.wall = crate::math::saturating_u16(walls);
 
     if wall_budget == 0 && n_landmark == 0 && n_outlier > 0 {
         let stride = n_outlier

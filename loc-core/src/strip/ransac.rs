@@ -136,7 +136,7 @@ pub(super) fn fit_wall<P: VehiclePoint>(
         cubic = ls.solve()?;
         result = Some(WallFit {
             cubic,
-            inliers: u16::try_from(n).unwrap_or(u16::MAX),
+            inliers: crate::math::saturating_u16(n),
             rms_m: math::sqrt(sum_sq / n as f32),
         });
     }

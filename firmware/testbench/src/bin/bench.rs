@@ -22,9 +22,6 @@ use loc_core::map::TunnelMap;
 /// at one instruction per cycle, well under the 40 ms scan period at 25 Hz).
 const BUDGET_INSTRUCTIONS: u64 = 1_500_000;
 
-/// Iterations of the calibration loop (4 instructions each).
-const CALIBRATION_ITERATIONS: u32 = 250_000;
-
 fn fail() -> ! {
     SelectedBoard::exit(ExitStatus::Failure)
 }
@@ -51,10 +48,7 @@ fn main() -> ! {
     );
 
     // Calibration: a loop of known length against the counter.
-    let expected = u64::from(CALIBRATION_ITERATIONS) * instruction_loop::INSTRUCTIONS_PER_ITERATION;
-    let t0 = board.counter_now();
-    instruction_loop::run(CALIBRATION_ITERATIONS);
-    let measured = board.counter_now() - t0;
+    let (expected, measured) = instruction_loop::calibrate(&board);
     defmt::println!(
         "calibration: {=u64} instructions executed, counter says {=u64} (resolution {=u64})",
         expected,

@@ -70,18 +70,12 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
     });
 }
 
-/// Iterations of the calibration loop (4 instructions each): 1 M instructions.
-const CALIBRATION_ITERATIONS: u32 = 250_000;
-
 /// Under QEMU (instruction counter) the counter agrees with a loop of known instruction
 /// count to within one counter resolution plus the loop's fixed set-up. On hardware (cycle
 /// counter) cycles per instruction vary with the pipeline, so only the order of magnitude
 /// is checked (0.4 to 3 cycles per instruction).
 fn counter_calibrates(board: &SelectedBoard) -> TestResult {
-    let expected = u64::from(CALIBRATION_ITERATIONS) * instruction_loop::INSTRUCTIONS_PER_ITERATION;
-    let t0 = board.counter_now();
-    instruction_loop::run(CALIBRATION_ITERATIONS);
-    let measured = board.counter_now() - t0;
+    let (expected, measured) = instruction_loop::calibrate(board);
     defmt::println!(
         "  loop of {=u64} instructions measured as {=u64} {}",
         expected,
