@@ -27,6 +27,7 @@ use host_sim::scenario::{MatcherChoice, Scenario};
 use host_sim::session::{run_scenario, EstimatorChoice};
 use host_sim::stored_map;
 use host_sim::visuals;
+use loc_core::localizer::StartPose;
 
 #[derive(Parser)]
 #[command(
@@ -196,6 +197,14 @@ struct ExportArgs {
     /// Output file (default: stdout for JSON, map.postcard for postcard).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write the start-pose record the controller reads beside the map (loc-core's
+    /// `StartPose`, 32 bytes): the scenario's drive start, or --start-pose.
+    #[arg(long)]
+    start_pose_out: Option<PathBuf>,
+    /// The start pose to write, `X,Y,THETA[,SIGMA_M,SIGMA_RAD]` (world frame, metres and
+    /// radians; σ default: the scenario's initial σ).
+    #[arg(long, value_delimiter = ',', requires = "start_pose_out")]
+    start_pose: Option<Vec<f64>>,
 }
 
 fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
@@ -493,9 +502,57 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
     Ok(())
 }
 
+/// The start-pose record `export-map --start-pose-out` writes.
+fn start_pose_record(
+    s: &Scenario,
+    world: &host_sim::world::World,
+    given: Option<&[f64]>,
+) -> Result<StartPose, String> {
+    let c = &s.localizer;
+    let (sigma_m, sigma_rad) = (c.initial_sigma_m.max(0.01), c.initial_sigma_rad.max(0.002));
+    let (x, y, th, sm, sr) = match given {
+        None => {
+            let p = host_sim::vehicle::path_follower::PathFollower::new(
+                s.drive,
+                world.centerline().length_m(),
+            )
+            .start_pose(world.centerline());
+            (p.x_m, p.y_m, p.theta_rad, sigma_m, sigma_rad)
+        }
+        Some([x, y, th]) => (*x, *y, *th, sigma_m, sigma_rad),
+        Some([x, y, th, sm, sr]) => (*x, *y, *th, *sm, *sr),
+        Some(v) => {
+            return Err(format!(
+                "--start-pose takes X,Y,THETA or X,Y,THETA,SIGMA_M,SIGMA_RAD, not {} numbers",
+                v.len()
+            ))
+        }
+    };
+    let start = StartPose {
+        pose: loc_core::geometry::Pose2::new(x as f32, y as f32, th as f32),
+        sigma_xy_m: sm as f32,
+        sigma_theta_rad: sr as f32,
+    };
+    // What the controller would refuse is refused here.
+    StartPose::from_bytes(&start.to_bytes()).map_err(|e| format!("--start-pose: {e}"))
+}
+
 fn cmd_export(a: &ExportArgs) -> Result<(), String> {
     let s = load_scenario(&a.scenario)?;
     let world = s.build_world().map_err(|e| e.to_string())?;
+    if let Some(path) = &a.start_pose_out {
+        let start = start_pose_record(&s, &world, a.start_pose.as_deref())?;
+        write_file(path, &start.to_bytes())?;
+        eprintln!(
+            "wrote {} (start pose x {:.3} m, y {:.3} m, heading {:.4} rad, sigma {:.3} m / {:.4} rad)",
+            path.display(),
+            start.pose.x_m,
+            start.pose.y_m,
+            start.pose.theta_rad,
+            start.sigma_xy_m,
+            start.sigma_theta_rad
+        );
+    }
     let choice = s.landmark_choice().map_err(|e| e.to_string())?;
     let map = stored_map::build(&world, &choice).map_err(|e| e.to_string())?;
     match a.format {

@@ -3,7 +3,9 @@
 //! [`ScanData::new_checked`] walks the whole telegram once (every field, every channel value
 //! token in CoLa-A) and keeps the fixed fields by value and the channels as borrowed regions, so
 //! values are iterated without allocation and without further checks. CoLa-A and CoLa-B give
-//! identical values. The offsets of the fixed CoLa-B fields are in [`field`].
+//! identical values. The fields are read in wire order through [`crate::args::ArgReader`]
+//! ([`ScanField`] names them in that order), not by fixed offsets: after the encoder count
+//! everything depends on the counts, and CoLa-A has no offsets at all.
 
 mod channel;
 mod error;
@@ -17,42 +19,6 @@ use crate::args::{ArgReader, LenWidth};
 use crate::frame::{Dialect, Frame};
 use crate::request::names;
 use crate::telegram::{CommandType, Telegram};
-
-/// CoLa-B byte offsets (from the first `0x02`) of the fixed `LMDscandata` fields. After
-/// [`field::ENCODER_COUNT`] the layout depends on the counts and is walked.
-pub mod field {
-    use core::ops::Range;
-    /// `sSN LMDscandata ` (16 chars).
-    pub const COMMAND: Range<usize> = 8..24;
-    /// u16 version.
-    pub const VERSION: Range<usize> = 24..26;
-    /// u16 device number.
-    pub const DEVICE_NUMBER: Range<usize> = 26..28;
-    /// u32 serial number.
-    pub const SERIAL_NUMBER: Range<usize> = 28..32;
-    /// 2 × u8 device status.
-    pub const DEVICE_STATUS: Range<usize> = 32..34;
-    /// u16 telegram counter.
-    pub const TELEGRAM_COUNTER: Range<usize> = 34..36;
-    /// u16 scan counter.
-    pub const SCAN_COUNTER: Range<usize> = 36..38;
-    /// u32 time since start-up, µs.
-    pub const TIME_SINCE_STARTUP: Range<usize> = 38..42;
-    /// u32 time of transmission, µs.
-    pub const TIME_OF_TRANSMISSION: Range<usize> = 42..46;
-    /// 2 × u8 input status.
-    pub const INPUT_STATUS: Range<usize> = 46..48;
-    /// 2 × u8 output status.
-    pub const OUTPUT_STATUS: Range<usize> = 48..50;
-    /// i16 reserved (layer angle on multi-layer models).
-    pub const RESERVED: Range<usize> = 50..52;
-    /// u32 scan frequency, 1/100 Hz.
-    pub const SCAN_FREQUENCY: Range<usize> = 52..56;
-    /// u32 measurement frequency, 100 Hz units.
-    pub const MEASUREMENT_FREQUENCY: Range<usize> = 56..60;
-    /// u16 number of encoders; then 6 bytes per encoder, then the 16-bit channel count.
-    pub const ENCODER_COUNT: Range<usize> = 60..62;
-}
 
 /// The fixed fields at the start of every scan telegram.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
