@@ -41,22 +41,12 @@ fn both(
     written: &mut Vec<PathBuf>,
 ) -> Result<(), PlotError> {
     let png = dir.join(format!("{name}.png"));
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        f(&root).map_err(|reason| PlotError {
-            path: png.clone(),
-            reason,
-        })?;
-    }
+    f(&BitMapBackend::new(&png, size).into_drawing_area())
+        .map_err(|reason| PlotError::new(&png, reason))?;
     written.push(png);
     let svg = dir.join(format!("{name}.svg"));
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        g(&root).map_err(|reason| PlotError {
-            path: svg.clone(),
-            reason,
-        })?;
-    }
+    g(&SVGBackend::new(&svg, size).into_drawing_area())
+        .map_err(|reason| PlotError::new(&svg, reason))?;
     written.push(svg);
     Ok(())
 }

@@ -54,23 +54,18 @@ pub(crate) fn packets(b: &[u8], mut each: impl FnMut(&Packet<'_>)) -> Result<(),
         let body = b
             .get(at + 8..at + len - 4)
             .ok_or(bad(at, "pcapng block truncated"))?;
-        // Fields of the block in the section's byte order.
-        let u32_in = |p: usize| -> Option<u32> {
-            let s: [u8; 4] = body.get(p..p + 4)?.try_into().ok()?;
+        // An unsigned field of `n` bytes (2 or 4) of the block, in the section's byte order.
+        let uint_in = |p: usize, n: usize| -> Option<u32> {
+            let bytes = body.get(p..p + n)?;
+            let be = |acc: u32, &b: &u8| (acc << 8) | u32::from(b);
             Some(if le {
-                u32::from_le_bytes(s)
+                bytes.iter().rev().fold(0, be)
             } else {
-                u32::from_be_bytes(s)
+                bytes.iter().fold(0, be)
             })
         };
-        let u16_in = |p: usize| -> Option<u16> {
-            let s: [u8; 2] = body.get(p..p + 2)?.try_into().ok()?;
-            Some(if le {
-                u16::from_le_bytes(s)
-            } else {
-                u16::from_be_bytes(s)
-            })
-        };
+        let u16_in = |p: usize| uint_in(p, 2).map(|v| v as u16);
+        let u32_in = |p: usize| uint_in(p, 4);
         match btype {
             IDB => {
                 let linktype = u16_in(0).ok_or(bad(at, "interface block truncated"))? as u32;

@@ -73,12 +73,41 @@ impl ReadAhead {
 }
 
 /// A read time-out or an interrupted call: no data yet, try again later.
+/// The open connection, or `NotConnected` (a link between `close` and `reconnect`).
+pub(crate) fn connected<T>(link: &mut Option<T>) -> io::Result<&mut T> {
+    link.as_mut()
+        .ok_or_else(|| io::Error::from(io::ErrorKind::NotConnected))
+}
+
 pub(crate) fn is_no_data(e: &io::Error) -> bool {
     matches!(
         e.kind(),
         io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
     )
 }
+
+/// `embedded-io`'s `ErrorType`, `Read` and `ReadReady` for a link that reads its connection
+/// (`Option<_>` field `$conn`, `None` while closed) through its `ahead: ReadAhead`.
+macro_rules! read_through_ahead {
+    ($link:ty, $conn:ident) => {
+        impl embedded_io::ErrorType for $link {
+            type Error = std::io::Error;
+        }
+
+        impl embedded_io::Read for $link {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                self.ahead.read(connected(&mut self.$conn)?, buf)
+            }
+        }
+
+        impl embedded_io::ReadReady for $link {
+            fn read_ready(&mut self) -> std::io::Result<bool> {
+                self.ahead.ready(connected(&mut self.$conn)?)
+            }
+        }
+    };
+}
+pub(crate) use read_through_ahead;
 
 #[cfg(test)]
 mod tests {

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use serialport::SerialPort;
 
-use super::read_ahead::{is_no_data, ReadAhead};
+use super::read_ahead::{connected, is_no_data, read_through_ahead, ReadAhead};
 use super::Transport;
 
 /// Settings of a [`SerialLink`]: 8 data bits, no parity, 1 stop bit, no flow control.
@@ -71,33 +71,11 @@ impl SerialLink {
     }
 
     fn port(&mut self) -> io::Result<&mut Box<dyn SerialPort>> {
-        self.port
-            .as_mut()
-            .ok_or_else(|| io::Error::from(io::ErrorKind::NotConnected))
+        connected(&mut self.port)
     }
 }
 
-impl embedded_io::ErrorType for SerialLink {
-    type Error = io::Error;
-}
-
-impl embedded_io::Read for SerialLink {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        let Some(p) = self.port.as_mut() else {
-            return Err(io::ErrorKind::NotConnected.into());
-        };
-        self.ahead.read(p, buf)
-    }
-}
-
-impl embedded_io::ReadReady for SerialLink {
-    fn read_ready(&mut self) -> io::Result<bool> {
-        let Some(p) = self.port.as_mut() else {
-            return Err(io::ErrorKind::NotConnected.into());
-        };
-        self.ahead.ready(p)
-    }
-}
+read_through_ahead!(SerialLink, port);
 
 impl embedded_io::Write for SerialLink {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {

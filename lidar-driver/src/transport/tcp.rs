@@ -5,7 +5,7 @@ use std::io::{self, Write as _};
 use std::net::{Shutdown, SocketAddr, TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
-use super::read_ahead::ReadAhead;
+use super::read_ahead::{connected, read_through_ahead, ReadAhead};
 use super::Transport;
 
 /// The TCP port SICK's driver uses for both dialects (2111 also serves CoLa-A).
@@ -103,9 +103,7 @@ impl TcpLink {
     }
 
     fn stream(&mut self) -> io::Result<&mut TcpStream> {
-        self.stream
-            .as_mut()
-            .ok_or_else(|| io::Error::from(io::ErrorKind::NotConnected))
+        connected(&mut self.stream)
     }
 }
 
@@ -114,27 +112,7 @@ fn nonzero(d: Duration) -> Duration {
     d.max(Duration::from_millis(1))
 }
 
-impl embedded_io::ErrorType for TcpLink {
-    type Error = io::Error;
-}
-
-impl embedded_io::Read for TcpLink {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        let Some(s) = self.stream.as_mut() else {
-            return Err(io::ErrorKind::NotConnected.into());
-        };
-        self.ahead.read(s, buf)
-    }
-}
-
-impl embedded_io::ReadReady for TcpLink {
-    fn read_ready(&mut self) -> io::Result<bool> {
-        let Some(s) = self.stream.as_mut() else {
-            return Err(io::ErrorKind::NotConnected.into());
-        };
-        self.ahead.ready(s)
-    }
-}
+read_through_ahead!(TcpLink, stream);
 
 impl embedded_io::Write for TcpLink {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {

@@ -5,6 +5,19 @@ fn diag(a: f32, b: f32, c: f32) -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(a, b, c))
 }
 
+/// A smooth-tunnel match at (10, 0, 0): it observes y and θ only; `hold` is the unobserved
+/// direction the update must not move (none: an unprojected update).
+fn smooth_tunnel_update(ekf: &mut Ekf, hold: Option<Point2>) -> UpdateReport {
+    ekf.update(
+        Pose2::new(10.0, 0.0, 0.0),
+        &diag(0.0, 1e6, 1e7),
+        hold,
+        &obs(),
+        &UpdateConfig::default(),
+    )
+    .unwrap()
+}
+
 /// The default matcher's observability criterion.
 fn obs() -> crate::matching::Observability {
     crate::matching::MatchConfig::default().observability()
@@ -65,17 +78,7 @@ fn update_leaves_unobserved_direction_to_odometry() {
     let prior = Pose2::new(10.5, 0.1, 3f32.to_radians());
     let p0 = diag(0.25, 0.01, 3f32.to_radians().powi(2));
     let mut ekf = Ekf::new(prior, p0).unwrap();
-    // A smooth-tunnel match: observes y and θ only, says (10.0, 0.0, 0.0).
-    let info = diag(0.0, 1e6, 1e7);
-    let report = ekf
-        .update(
-            Pose2::new(10.0, 0.0, 0.0),
-            &info,
-            None,
-            &obs(),
-            &UpdateConfig::default(),
-        )
-        .unwrap();
+    let report = smooth_tunnel_update(&mut ekf, None);
     assert_eq!(report.observed_directions, 2);
     let p = ekf.pose();
     assert!((p.x_m - 10.5).abs() < 1e-5, "{p:?}");
@@ -147,26 +150,11 @@ fn projected_gain_holds_along_position_despite_correlation() {
     // A prior correlated between along (x) and heading, as after driving a bend.
     let p0 = Matrix3::new(0.25, 0.0, 0.01, 0.0, 0.01, 0.0, 0.01, 0.0, 0.003);
     let mut ekf = Ekf::new(Pose2::new(10.5, 0.1, 0.05), p0).unwrap();
-    let info = diag(0.0, 1e6, 1e7);
     let mut free = ekf;
-    free.update(
-        Pose2::new(10.0, 0.0, 0.0),
-        &info,
-        None,
-        &obs(),
-        &UpdateConfig::default(),
-    )
-    .unwrap();
+    smooth_tunnel_update(&mut free, None);
     // Unprojected, the correlation drags x.
     assert!((free.pose().x_m - 10.5).abs() > 0.05, "{:?}", free.pose());
-    ekf.update(
-        Pose2::new(10.0, 0.0, 0.0),
-        &info,
-        Some(Point2::new(1.0, 0.0)),
-        &obs(),
-        &UpdateConfig::default(),
-    )
-    .unwrap();
+    smooth_tunnel_update(&mut ekf, Some(Point2::new(1.0, 0.0)));
     assert!((ekf.pose().x_m - 10.5).abs() < 1e-5, "{:?}", ekf.pose());
     assert!((ekf.covariance()[(0, 0)] - 0.25).abs() < 1e-5);
     assert!(ekf.pose().y_m.abs() < 0.01);
