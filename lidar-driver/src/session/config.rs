@@ -19,6 +19,10 @@ pub struct Timeouts {
     /// No scan for this long while streaming → re-connect and re-initialise (40 ms is one scan
     /// at 25 Hz).
     pub scan_ms: u64,
+    /// Wait for the first scan after the subscription (`sEA LMDscandata`) before giving up:
+    /// longer than between scans, because a device may start measuring only then (the real
+    /// LMS511 took 223 ms, SICK's C++ emulator 1.2 s; SICK's driver waits 5 s).
+    pub first_scan_ms: u64,
     /// Pause between a failed attempt and the next connect.
     pub reconnect_delay_ms: u64,
 }
@@ -31,6 +35,7 @@ impl Default for Timeouts {
             ready_poll_ms: 1000,
             ready_ms: 180_000,
             scan_ms: 1000,
+            first_scan_ms: 5000,
             reconnect_delay_ms: 1000,
         }
     }

@@ -91,10 +91,13 @@ pub enum SessionError {
         /// Why.
         error: AnswerError,
     },
-    /// No scan arrived for the scan time-out while streaming.
+    /// No scan arrived for the scan time-out while streaming (or, for the first scan, for the
+    /// first-scan time-out after the subscription).
     ScanTimeout {
         /// Time since the last scan (or the subscription), ms.
         waited_ms: u64,
+        /// No scan at all had arrived since the subscription.
+        first: bool,
     },
     /// A request did not fit the session's transmit buffer (a bug: report it).
     Emit(EmitError),
@@ -159,9 +162,13 @@ impl fmt::Display for SessionError {
             SessionError::BadAnswer { step, error } => {
                 write!(f, "malformed answer while {step}: {error}")
             }
-            SessionError::ScanTimeout { waited_ms } => write!(
+            SessionError::ScanTimeout { waited_ms, first: false } => write!(
                 f,
                 "no scan for {waited_ms} ms while streaming: re-connecting and re-initialising"
+            ),
+            SessionError::ScanTimeout { waited_ms, first: true } => write!(
+                f,
+                "no first scan {waited_ms} ms after subscribing (LMDscandata): re-connecting and re-initialising; raise Timeouts::first_scan_ms for a slow device"
             ),
             SessionError::Emit(e) => write!(f, "cannot encode request: {e}"),
         }

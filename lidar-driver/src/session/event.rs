@@ -50,8 +50,10 @@ pub enum Event<'a> {
     DialectDetected(Dialect),
     /// The sensor accepted `sWN EIHstCola`: the session re-connects and speaks this dialect.
     DialectSwitched(Dialect),
-    /// The device answered `SCdevicestate` busy or error: the session polls it again until the
-    /// ready time-out.
+    /// The device answered `SCdevicestate` busy (0: starting up, or in configuration mode) —
+    /// the session logs in and starts the measurement anyway, as SICK's driver does, and waits
+    /// only when a step is refused as busy (`sFA 13`) — or error (2): the session polls it
+    /// again until the ready time-out.
     DeviceNotReady {
         /// Reported state.
         state: DeviceState,
@@ -155,16 +157,18 @@ impl core::fmt::Display for Event<'_> {
             Event::Probing(d) => write!(f, "probing in {d} (sRN SCdevicestate)"),
             Event::DialectDetected(d) => write!(f, "sensor speaks {d}"),
             Event::DialectSwitched(d) => write!(f, "sensor switched to {d}; re-connecting"),
-            Event::DeviceNotReady { state, waited_ms } => write!(
-                f,
-                "device not ready: {} (SCdevicestate {}) for {waited_ms} ms; polling",
-                match state {
-                    DeviceState::Busy => "busy, still starting up",
-                    DeviceState::Error => "error state",
-                    DeviceState::Ready => "ready",
-                },
-                state.to_u8()
-            ),
+            Event::DeviceNotReady { state, waited_ms } => match state {
+                DeviceState::Busy => write!(
+                    f,
+                    "device busy (SCdevicestate 0: starting up or in configuration mode) for {waited_ms} ms; logging in and starting the measurement"
+                ),
+                _ => write!(
+                    f,
+                    "device not ready: {} (SCdevicestate {}) for {waited_ms} ms; polling",
+                    if *state == DeviceState::Error { "error state" } else { "ready" },
+                    state.to_u8()
+                ),
+            },
             Event::StepDone(s) => write!(f, "done: {s}"),
             Event::Info(i) => i.fmt(f),
             Event::Streaming => f.write_str("subscribed: scans follow"),

@@ -3,8 +3,10 @@
 //!
 //! ```text
 //! Disconnected ──connect──▶ Probe(dialect) ──no answer──▶ Probe(other dialect) ──no answer──▶ fail
-//!                               │ SCdevicestate busy/error ──▶ WaitReady (poll until ready / time-out)
-//!                               ▼ ready
+//!                               │ SCdevicestate error ──▶ WaitReady (poll until ready / time-out)
+//!                               ▼ ready, or busy (0: starting up or in configuration mode, as
+//!                                 SICK's driver does: log in and start the measurement; a
+//!                                 step refused with sFA 13 "busy" ──▶ WaitReady, then again)
 //!   Login [→ sWN EIHstCola → re-connect, if switch_dialect asks for the other dialect]
 //!   → FirmwareVersion → SCdevicestate → LocationName → [sWN LMPoutputRange] → LMPoutputRange
 //!   → sWN LMDscandatacfg → LMDscandatacfg → [mLMPsetscancfg → LMPscancfg] → [FREchoFilter]
@@ -59,6 +61,7 @@ use crate::frame::{Dialect, Frame};
 use crate::framer::{Framer, FramerStats};
 use crate::request::names;
 use crate::scandata::ScanData;
+use crate::sopas_error::SopasError;
 use crate::telegram::{CommandType, Telegram};
 use crate::transport::Transport;
 
@@ -110,6 +113,8 @@ enum State {
     },
     Streaming {
         last_scan_ms: u64,
+        /// No scan yet since the subscription.
+        first: bool,
     },
     Failed(SessionError),
     Stopped,
@@ -136,6 +141,9 @@ struct Core {
     stats: SessionStats,
     failed_attempts: u32,
     clear_framer: bool,
+    /// Since when the device has said it is busy (`SCdevicestate 0`, `sFA 13`), ms; reset
+    /// when the scans stream or the attempt fails.
+    busy_since_ms: Option<u64>,
     pending: Option<Event<'static>>,
     tx: [u8; TX_LEN],
 }
@@ -155,6 +163,7 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Session<B> {
                 stats: SessionStats::default(),
                 failed_attempts: 0,
                 clear_framer: false,
+                busy_since_ms: None,
                 pending: None,
                 tx: [0u8; TX_LEN],
             },
@@ -404,13 +413,20 @@ impl Core {
                     },
                 ))
             }
-            State::Streaming { last_scan_ms } => {
+            State::Streaming {
+                last_scan_ms,
+                first,
+            } => {
                 let waited = elapsed(now, last_scan_ms);
-                if waited < t.scan_ms {
+                if waited < if first { t.first_scan_ms } else { t.scan_ms } {
                     return None;
                 }
                 self.stats.timeouts += 1;
-                Some(self.fail(io, now, SessionError::ScanTimeout { waited_ms: waited }))
+                let e = SessionError::ScanTimeout {
+                    waited_ms: waited,
+                    first,
+                };
+                Some(self.fail(io, now, e))
             }
         }
     }
@@ -470,9 +486,28 @@ impl Core {
         Ok(())
     }
 
+    /// A start-up step was refused with "server busy" (`sFA 13`): the device is still booting.
+    /// Poll `SCdevicestate` after the poll interval and start up again, until the ready
+    /// time-out counted from the first busy answer.
+    fn wait_while_busy(&mut self, now: u64) -> Event<'static> {
+        self.stats.not_ready_answers += 1;
+        let since_ms = *self.busy_since_ms.get_or_insert(now);
+        self.state = State::WaitReady {
+            since_ms,
+            last: DeviceState::Busy,
+            sent_ms: None,
+            next_poll_ms: now.saturating_add(self.cfg.timeouts.ready_poll_ms),
+        };
+        Event::DeviceNotReady {
+            state: DeviceState::Busy,
+            waited_ms: elapsed(now, since_ms),
+        }
+    }
+
     fn fail<T: Transport>(&mut self, io: &mut T, now: u64, error: SessionError) -> Event<'static> {
         io.close();
         self.clear_framer = true;
+        self.busy_since_ms = None;
         self.pending = None;
         self.stats.failures += 1;
         self.failed_attempts = self.failed_attempts.saturating_add(1);
@@ -554,7 +589,10 @@ impl Core {
         if ScanData::is_scan_telegram(t) {
             return match ScanData::from_telegram(t) {
                 Ok(scan) => {
-                    self.state = State::Streaming { last_scan_ms: now };
+                    self.state = State::Streaming {
+                        last_scan_ms: now,
+                        first: false,
+                    };
                     self.stats.scans += 1;
                     self.failed_attempts = 0;
                     Event::Scan(scan)
@@ -624,6 +662,22 @@ impl Core {
         };
         self.detect(t.dialect());
         let detected = Event::DialectDetected(t.dialect());
+        if state == DeviceState::Busy {
+            self.stats.not_ready_answers += 1;
+            let since_ms = *self.busy_since_ms.get_or_insert(now);
+            let busy = Event::DeviceNotReady {
+                state,
+                waited_ms: elapsed(now, since_ms),
+            };
+            if let Err(ev) = self.start_step(io, now, Step::FIRST_AFTER_PROBE) {
+                return ev;
+            }
+            if probing.is_some() {
+                self.pending = Some(busy);
+                return detected;
+            }
+            return busy;
+        }
         if state == DeviceState::Ready {
             return match self.start_step(io, now, Step::FIRST_AFTER_PROBE) {
                 Ok(()) if probing.is_some() => detected,
@@ -685,6 +739,8 @@ impl Core {
         let (kind, name) = step.expected_answer(&self.cfg);
         if t.kind() == CommandType::Error {
             return match Answer::parse(t) {
+                // Still booting: wait for the device, then start up again.
+                Ok(Answer::Error(SopasError::ServerBusy)) => self.wait_while_busy(now),
                 Ok(Answer::Error(error)) => {
                     self.fail(io, now, SessionError::Refused { step, error })
                 }
@@ -734,7 +790,11 @@ impl Core {
                 }
             }
             None => {
-                self.state = State::Streaming { last_scan_ms: now };
+                self.state = State::Streaming {
+                    last_scan_ms: now,
+                    first: true,
+                };
+                self.busy_since_ms = None;
                 self.stats.streams_started += 1;
             }
         }

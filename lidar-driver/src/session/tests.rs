@@ -143,6 +143,7 @@ fn cfg() -> SessionConfig {
             ready_poll_ms: 50,
             ready_ms: 1000,
             scan_ms: 300,
+            first_scan_ms: 600,
             reconnect_delay_ms: 500,
         },
         ..SessionConfig::default()
@@ -244,19 +245,36 @@ fn silence_times_out_per_dialect_then_reconnects_after_the_delay() {
     assert_eq!(s.stats().timeouts, 2);
 }
 
+/// A device that always answers `SCdevicestate 0` (in configuration mode, as SICK's Python
+/// test server does) is logged in and put into measurement, as SICK's driver does: no
+/// polling until the ready time-out.
 #[test]
-fn busy_device_is_polled_and_reported_until_ready() {
-    let clock = Cell::new(0);
-    let mut io = Mock::default();
-    let mut s = Session::new(vec![0u8; 4096], cfg());
-    let mut busy_left = 3;
+fn a_device_that_always_says_busy_is_started_anyway() {
+    let (clock, mut io, mut s) = fresh(cfg());
+    let log = pump(&mut s, &mut io, &clock, |r| match r {
+        Request::Read(names::DEVICE_STATE) => Some(Answer::DeviceState(DeviceState::Busy)),
+        r => Some(ok_answer(r)),
+    });
+    assert_eq!(s.phase(), Phase::Streaming, "{log:#?}");
+    assert_eq!(clock.get(), 0, "no waiting");
+    assert!(log.contains(&"DeviceNotReady { state: Busy, waited_ms: 0 }".to_string()));
+    assert!(log.iter().any(|l| l == "StepDone(Run)"), "{log:#?}");
+}
+
+/// A booting device answers `SCdevicestate 0` and refuses the login with `sFA 13` (server
+/// busy): the session polls it and starts up once it accepts.
+#[test]
+fn a_booting_device_is_polled_until_it_accepts_the_login() {
+    let (clock, mut io, mut s) = fresh(cfg());
+    let mut refusals_left = 3;
     let mut log = Vec::new();
     for t in (0..400).step_by(10) {
         clock.set(t);
         log.extend(pump(&mut s, &mut io, &clock, |r| match r {
-            Request::Read(names::DEVICE_STATE) if busy_left > 0 => {
-                busy_left -= 1;
-                Some(Answer::DeviceState(DeviceState::Busy))
+            Request::Read(names::DEVICE_STATE) => Some(Answer::DeviceState(DeviceState::Busy)),
+            Request::SetAccessMode { .. } if refusals_left > 0 => {
+                refusals_left -= 1;
+                Some(Answer::Error(SopasError::ServerBusy))
             }
             r => Some(ok_answer(r)),
         }));
@@ -265,10 +283,36 @@ fn busy_device_is_polled_and_reported_until_ready() {
         .iter()
         .filter(|l| l.starts_with("DeviceNotReady"))
         .collect();
-    assert_eq!(busy.len(), 3, "{log:#?}");
+    // One per SCdevicestate answer and one per refusal, counted from the first.
+    assert!(busy.len() >= 6, "{log:#?}");
     assert_eq!(busy[0], "DeviceNotReady { state: Busy, waited_ms: 0 }");
-    assert_eq!(busy[2], "DeviceNotReady { state: Busy, waited_ms: 100 }");
+    assert!(busy.last().unwrap().contains("waited_ms: 150"), "{log:#?}");
     assert_eq!(s.phase(), Phase::Streaming, "{log:#?}");
+    assert_eq!(refusals_left, 0);
+}
+
+/// A device that stays in error (`SCdevicestate 2`) is polled and reported as in error.
+#[test]
+fn a_device_in_error_is_reported_as_such() {
+    let (clock, mut io, mut s) = fresh(cfg());
+    let mut log = Vec::new();
+    for t in (0..=1100).step_by(10) {
+        clock.set(t);
+        log.extend(pump(&mut s, &mut io, &clock, |r| match r {
+            Request::Read(names::DEVICE_STATE) => Some(Answer::DeviceState(DeviceState::Error)),
+            r => Some(ok_answer(r)),
+        }));
+    }
+    assert!(
+        log.iter()
+            .any(|l| l.contains("DeviceNotReady { state: Error, waited_ms: 1000 }")),
+        "{log:#?}"
+    );
+    let e = SessionError::DeviceNotReady {
+        state: DeviceState::Error,
+        waited_ms: 1000,
+    };
+    assert!(e.to_string().contains("error state"), "{e}");
 }
 
 #[test]
@@ -413,24 +457,58 @@ fn connection_refused_and_end_of_stream_reconnect() {
 }
 
 #[test]
-fn no_scan_within_the_scan_timeout_reconnects() {
+fn the_first_scan_gets_its_own_longer_timeout() {
     let clock = Cell::new(0);
     let mut io = Mock::default();
     let mut s = Session::new(vec![0u8; 4096], cfg());
     pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
     assert_eq!(s.phase(), Phase::Streaming);
     let c = || clock.get();
-    clock.set(299);
+    // Past the 300 ms between scans but within the 600 ms for the first one.
+    clock.set(599);
     assert_eq!(s.poll(&mut io, &c), Event::Idle);
-    clock.set(300);
+    clock.set(600);
+    let ev = s.poll(&mut io, &c);
+    assert!(
+        matches!(
+            ev,
+            Event::Reconnecting {
+                error: SessionError::ScanTimeout {
+                    waited_ms: 600,
+                    first: true
+                },
+                ..
+            }
+        ),
+        "{ev:?}"
+    );
+    assert!(ev.to_string().contains("first scan"), "{ev}");
+    assert_eq!(s.phase(), Phase::Disconnected);
+}
+
+#[test]
+fn no_scan_within_the_scan_timeout_after_the_first_reconnects() {
+    let clock = Cell::new(0);
+    let mut io = Mock::default();
+    let mut s = Session::new(vec![0u8; 4096], cfg());
+    pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
+    let c = || clock.get();
+    clock.set(100);
+    io.rx.extend(stream_props::recorded_scans(1).remove(0));
+    assert!(matches!(s.poll(&mut io, &c), Event::Scan(_)));
+    clock.set(399);
+    assert_eq!(s.poll(&mut io, &c), Event::Idle);
+    clock.set(400);
     assert!(matches!(
         s.poll(&mut io, &c),
         Event::Reconnecting {
-            error: SessionError::ScanTimeout { waited_ms: 300 },
+            error: SessionError::ScanTimeout {
+                waited_ms: 300,
+                first: false
+            },
             ..
         }
     ));
-    assert_eq!(s.phase(), Phase::Disconnected);
 }
 
 mod stream_props {
@@ -438,7 +516,7 @@ mod stream_props {
     use proptest::prelude::*;
 
     /// The first `n` scans of the LMS511 capture's sensor stream, as CoLa-B frames.
-    fn recorded_scans(n: usize) -> Vec<Vec<u8>> {
+    pub(super) fn recorded_scans(n: usize) -> Vec<Vec<u8>> {
         let bytes = sick_captures::read(sick_captures::LMS511_S2H);
         let mut f = Framer::new(vec![0u8; 64 * 1024]);
         let mut out = Vec::new();
@@ -551,7 +629,7 @@ fn events_read_as_log_lines() {
     };
     assert_eq!(
         busy.to_string(),
-        "device not ready: busy, still starting up (SCdevicestate 0) for 1200 ms; polling"
+        "device busy (SCdevicestate 0: starting up or in configuration mode) for 1200 ms; logging in and starting the measurement"
     );
     assert_eq!(
         Event::Info(DeviceInfo::FirmwareVersion(b"V1.80    ")).to_string(),
@@ -562,7 +640,10 @@ fn events_read_as_log_lines() {
         "output range -5..185 deg, step 0.1667 deg"
     );
     let r = Event::Reconnecting {
-        error: SessionError::ScanTimeout { waited_ms: 1000 },
+        error: SessionError::ScanTimeout {
+            waited_ms: 1000,
+            first: false,
+        },
         failed_attempts: 1,
         retry_in_ms: 1000,
     };

@@ -26,6 +26,7 @@ pub fn fast_timeouts() -> Timeouts {
         ready_poll_ms: 100,
         ready_ms: 5000,
         scan_ms: 1500,
+        first_scan_ms: 3000,
         reconnect_delay_ms: 100,
     }
 }
