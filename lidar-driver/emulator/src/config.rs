@@ -8,6 +8,8 @@ use lidar_driver::frame::Dialect;
 use lidar_driver::recording::Recording;
 use lidar_driver::request::{OutputRange, ScanConfig, ScanDataConfig};
 
+use crate::recorded::RecordedAnswers;
+
 /// The LMS511's field of view, 1/10000° (−5° … +185°).
 pub(crate) const LMS511_FOV_1E4_DEG: (i32, i32) = (-50_000, 1_850_000);
 
@@ -42,6 +44,9 @@ pub struct DeviceIdentity {
     pub scan_config: ScanConfig,
     /// Angles `LMPoutputRange` and `mLMPsetscancfg` may use, 1/10000° (start, stop).
     pub field_of_view_1e4_deg: (i32, i32),
+    /// Every other answer and the events the recorded sensor sent (field definitions,
+    /// input / output states, `LFErec`), replayed as recorded.
+    pub recorded: RecordedAnswers,
 }
 
 impl DeviceIdentity {
@@ -67,16 +72,22 @@ impl DeviceIdentity {
                 stop_1e4_deg: 1_850_000,
             },
             field_of_view_1e4_deg: LMS511_FOV_1E4_DEG,
+            recorded: RecordedAnswers::lms511_capture(),
         }
     }
 
     /// The identity a recording shows: every answer the recorded sensor gave (FirmwareVersion,
     /// LocationName, ODoprh, ODpwrc, LMPoutputRange, LMDscandatacfg, LMPscancfg) and the scan
-    /// geometry of its first scan (frequency, step, angles); fields the recording lacks keep
-    /// the LMS511 capture's values. The field of view and the scan angles are the first
-    /// (power-up) output range.
+    /// geometry of its first scan (frequency, step, angles), and its other answers and events
+    /// ([`RecordedAnswers`]); what the recording lacks keeps the LMS511 capture's values. The
+    /// field of view and the scan angles are the first (power-up) output range.
     pub fn from_recording(rec: &Recording) -> Self {
         let mut id = Self::lms511_capture();
+        let recorded = RecordedAnswers::from_recording(rec);
+        // A recording with answers of its own (not just scans) answers with them.
+        if recorded.requests().next().is_some() {
+            id.recorded = recorded;
+        }
         let mut range_seen = false;
         let mut scan_seen = false;
         for f in rec.frames().frames {

@@ -12,7 +12,17 @@ use lidar_driver::telegram::{CommandType, Telegram};
 use lidar_driver::ScanRepr;
 
 use crate::config::{DialectMode, EmulatorConfig};
+use crate::recorded::RecordedTelegram;
 use crate::Shared;
+
+/// A subscription to a recorded event (`LIDoutputstate`, `LFErec`, …): its recorded events
+/// go out at their recorded times after the acknowledgement, once each.
+#[derive(Debug, Clone, PartialEq)]
+struct EventSubscription {
+    name: String,
+    since: Instant,
+    sent: usize,
+}
 
 /// LMS511 frequency / resolution pairs (1/100 Hz, 1/10000°) within its 54 kHz shot rate.
 pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
@@ -67,6 +77,7 @@ pub(crate) struct Connection<'s> {
     level: u8,
     config_mode: bool,
     subscribed: bool,
+    events: Vec<EventSubscription>,
     next_scan: Option<Instant>,
     scans_here: u64,
     verdict: Verdict,
@@ -85,6 +96,7 @@ impl<'s> Connection<'s> {
             level: 0,
             config_mode: false,
             subscribed: false,
+            events: Vec::new(),
             next_scan: None,
             scans_here: 0,
             verdict: Verdict::Continue,
@@ -126,6 +138,11 @@ impl<'s> Connection<'s> {
                 self.shared.stats.count(|s| s.errors_sent += 1);
                 Answer::Error(e).emit(d, &mut self.tx)
             }
+            Reply::EventAck(event, enabled) => Answer::EventAck {
+                event: &event,
+                enabled,
+            }
+            .emit(d, &mut self.tx),
             Reply::EchoFilter(f) => {
                 TelegramWriter::begin(d, &mut self.tx, CommandType::ReadAnswer, names::ECHO_FILTER)
                     .and_then(|mut w| {
@@ -144,6 +161,13 @@ impl<'s> Connection<'s> {
                 }
                 return;
             }
+            Reply::Recorded(t) => {
+                match t.for_dialect(d) {
+                    Some(v) => out.extend_from_slice(&v),
+                    None => self.shared.stats.count(|s| s.emit_failures += 1),
+                }
+                return;
+            }
             Reply::None => return,
         };
         match n {
@@ -155,6 +179,13 @@ impl<'s> Connection<'s> {
     fn answer(&mut self, t: &Telegram<'_>, now: Instant) -> Reply<'s> {
         let req = match Request::parse(t) {
             Ok(r) => r,
+            // Not modelled here: what the recorded sensor answered, if it was asked.
+            Err(RequestError::Unsupported(kind)) if self.recorded(kind, t.name()).is_some() => {
+                return match self.recorded(kind, t.name()) {
+                    Some(r) if !self.booting(now) => Reply::Recorded(r),
+                    _ => Reply::Error(SopasError::ServerBusy),
+                };
+            }
             Err(RequestError::Unsupported(CommandType::WriteRequest)) => {
                 return Reply::Error(SopasError::UnknownVariable)
             }
@@ -203,16 +234,33 @@ impl<'s> Connection<'s> {
                 }
                 Reply::Answer(Answer::AccessMode { accepted: ok })
             }
-            Request::Subscribe { event, enable } => {
-                if event != names::SCAN_DATA {
-                    return Reply::Error(SopasError::UnknownVariable);
-                }
+            Request::Subscribe { event, enable } if event == names::SCAN_DATA => {
                 self.subscribed = enable;
                 self.next_scan = None;
                 Reply::Answer(Answer::EventAck {
                     event: names::SCAN_DATA,
                     enabled: enable,
                 })
+            }
+            Request::Subscribe { event, enable } => {
+                let recorded = &self.shared.config.identity.recorded;
+                if !recorded.knows_event(event) {
+                    return Reply::Error(SopasError::UnknownVariable);
+                }
+                self.events.retain(|s| s.name != event);
+                let ack = recorded.answer(CommandType::EventRequest, event);
+                if !enable {
+                    return Reply::EventAck(event.to_string(), false);
+                }
+                self.events.push(EventSubscription {
+                    name: event.to_string(),
+                    since: now,
+                    sent: 0,
+                });
+                match ack {
+                    Some(a) => Reply::Recorded(a),
+                    None => Reply::EventAck(event.to_string(), true),
+                }
             }
             // Everything below changes the device: authorized client or higher only.
             Request::Read(_) => Reply::None,
@@ -302,16 +350,52 @@ impl<'s> Connection<'s> {
                     None => Reply::Error(SopasError::LocalConditionFailed),
                 }
             }
-            _ => return Reply::Error(SopasError::UnknownVariable),
+            _ => {
+                return match self.recorded(CommandType::ReadRequest, name) {
+                    Some(r) => Reply::Recorded(r),
+                    None => Reply::Error(SopasError::UnknownVariable),
+                }
+            }
         })
     }
 
+    /// The recorded sensor's answer to a request of `kind` for `name`, if it was asked.
+    fn recorded(&self, kind: CommandType, name: &str) -> Option<&'s RecordedTelegram> {
+        let shared: &'s Shared = self.shared;
+        shared.config.identity.recorded.answer(kind, name)
+    }
+
+    /// The recorded events of the subscriptions that are due by `now`, in recorded order.
+    fn send_events(&mut self, d: Dialect, now: Instant, out: &mut Vec<u8>) {
+        let shared: &'s Shared = self.shared;
+        for sub in &mut self.events {
+            let due = shared
+                .config
+                .identity
+                .recorded
+                .events(&sub.name)
+                .skip(sub.sent)
+                .take_while(|e| now.duration_since(sub.since) >= e.after);
+            for e in due {
+                if let Some(v) = e.telegram.for_dialect(d) {
+                    out.extend_from_slice(&v);
+                    shared.stats.count(|s| s.events_sent += 1);
+                }
+                sub.sent += 1;
+            }
+        }
+    }
+
     /// Scans due by `now` (at most one per call; a late loop skips periods instead of
-    /// bursting), with fault injection. Returns whether to drop the connection.
+    /// bursting), with fault injection, and the recorded events due. Returns whether to drop
+    /// the connection.
     pub(crate) fn tick(&mut self, now: Instant, out: &mut Vec<u8>) -> Verdict {
         let Some(d) = self.dialect else {
             return self.verdict;
         };
+        if !self.shared.config.faults.silent {
+            self.send_events(d, now, out);
+        }
         if !self.subscribed
             || self.config_mode
             || self.booting(now)
@@ -405,6 +489,10 @@ enum Reply<'t> {
     Error(SopasError),
     EchoFilter(EchoFilter),
     Scan(ScanRepr),
+    /// A recorded answer, replayed.
+    Recorded(&'t RecordedTelegram),
+    /// `sEA <event> <enabled>` for an event the answer of which was not recorded.
+    EventAck(String, bool),
     None,
 }
 

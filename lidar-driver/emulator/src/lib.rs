@@ -26,10 +26,12 @@
 
 mod config;
 mod device;
+mod recorded;
 mod source;
 mod stats;
 
 pub use config::{DeviceIdentity, DialectMode, EmulatorConfig, Faults};
+pub use recorded::{RecordedAnswers, RecordedEvent, RecordedTelegram};
 pub use source::{RecordingSource, ScanSource, SourceError};
 pub use stats::EmulatorStats;
 

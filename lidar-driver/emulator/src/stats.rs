@@ -17,6 +17,8 @@ pub struct EmulatorStats {
     pub errors_sent: u64,
     /// Scans sent (streamed and polled).
     pub scans_sent: u64,
+    /// Recorded events (`sSN` other than scans) sent to subscribers.
+    pub events_sent: u64,
     /// Connections dropped by fault injection.
     pub drops: u32,
     /// Garbage bursts injected.

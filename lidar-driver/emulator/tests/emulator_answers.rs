@@ -1,4 +1,6 @@
-//! The emulator answers the LMS511 start-up dialogue of the capture byte for byte (CoLa-B), the
+//! The emulator answers the LMS511 start-up dialogue of the capture byte for byte (CoLa-B) —
+//! every request of it, the field definitions, input states and event subscriptions
+//! included, and the start-up sequence SICK's own driver (sick_scan_xd 3.9.0) sends —, the
 //! same typed answers in CoLa-A, `sFA` for what it does not know or what needs a login.
 
 mod session_support;
@@ -81,8 +83,9 @@ fn capture_dialogue() -> Vec<(Vec<u8>, Vec<u8>)> {
     reqs.into_iter().zip(answers).collect()
 }
 
-/// Names the emulated LMS511 knows; the capture also reads field000…029 and the I/O states.
-fn known(name: &str) -> bool {
+/// Names whose answers the emulator builds from typed values (the rest it replays as the
+/// capture recorded them: field000…029, the I/O states, LFErec).
+fn typed(name: &str) -> bool {
     !(name.starts_with("field") || name.starts_with("LID") || name == "LFErec")
 }
 
@@ -94,22 +97,175 @@ fn cola_b_answers_equal_the_lms511_capture() {
     for (req, want) in capture_dialogue() {
         let (kind, name) = kind_of(&req);
         let got = c.ask(&req);
-        if known(&name) {
-            assert_eq!(got, want, "{kind} {name}");
-            compared += 1;
-        } else {
-            let f = lidar_driver::Frame::new_checked(&got).unwrap();
-            assert!(
-                matches!(Answer::from_frame(f), Ok(Answer::Error(_))),
-                "{kind} {name} must get sFA"
-            );
-        }
+        assert_eq!(got, want, "{kind} {name}");
+        compared += 1;
     }
-    // SetAccessMode, EIHstCola, FirmwareVersion, SCdevicestate, ODoprh, ODpwrc, LocationName,
-    // LMPoutputRange ×3, LMDscandatacfg ×2, LMCstartmeas, Run, sEN LMDscandata.
-    assert_eq!(compared, 15);
+    // Every request of the capture: SetAccessMode, EIHstCola, FirmwareVersion,
+    // SCdevicestate, ODoprh, ODpwrc, LocationName, LMPoutputRange ×3, field000…029,
+    // LIDinputstate, LMDscandatacfg ×2, LMCstartmeas, Run, sEN LMDscandata, LFErec,
+    // LIDoutputstate, LIDinputstate.
+    assert_eq!(compared, 49);
     let st = emu.stop();
     assert_eq!((st.requests, st.connections), (49, 1), "{st:?}");
+}
+
+/// The capture's sensor frames of subscription `name` (`sSN`), in order.
+fn capture_events(name: &str) -> Vec<Vec<u8>> {
+    frames("lms511_20210302_colab.sensor_to_host.colab.bin")
+        .into_iter()
+        .filter(|f| kind_of(f) == (CommandType::Event, name.to_string()))
+        .collect()
+}
+
+/// After `sEN LIDoutputstate 1` / `sEN LFErec 1` the recorded events arrive, byte for byte as
+/// the LMS511 sent them, at their recorded times (the fourth LIDoutputstate and the LFErec
+/// 1.1 s after the subscription).
+#[test]
+fn subscribed_events_arrive_as_the_lms511_sent_them() {
+    let emu = Emulator::start(EmulatorConfig::default(), lms511_source()).unwrap();
+    let mut c = Client::connect(&emu);
+    let mut events = Vec::new();
+    for name in ["LIDoutputstate", "LFErec"] {
+        let mut req = [0u8; 64];
+        let n = Request::Subscribe {
+            event: name,
+            enable: true,
+        }
+        .emit(Dialect::ColaB, &mut req)
+        .unwrap();
+        let ack = c.ask(&req[..n]);
+        assert_eq!(kind_of(&ack), (CommandType::EventAnswer, name.to_string()));
+    }
+    let end = Instant::now() + Duration::from_secs(3);
+    let mut buf = [0u8; 8192];
+    while Instant::now() < end && events.len() < 5 {
+        events.append(&mut c.ready);
+        if let Ok(n) = c.s.read(&mut buf) {
+            let ready = &mut events;
+            c.framer
+                .feed(&buf[..n], |r| ready.push(r.unwrap().as_bytes().to_vec()));
+        }
+    }
+    let got = |name: &str| -> Vec<Vec<u8>> {
+        events
+            .iter()
+            .filter(|f| kind_of(f).1 == name)
+            .cloned()
+            .collect()
+    };
+    assert_eq!(got("LIDoutputstate"), capture_events("LIDoutputstate"));
+    assert_eq!(got("LFErec"), capture_events("LFErec"));
+    assert_eq!(emu.stop().events_sent, 5);
+}
+
+/// The start-up sequence SICK's driver (sick_scan_xd 3.9.0, LMS5xx launch file, binary)
+/// sends: every answer is the capture's where the capture asked the same; the rest
+/// (the probe before the login, FREchoFilter) is answered as the LMS5xx's telegram listing
+/// says; then scans of 1141 points stream.
+#[test]
+fn sick_scan_xd_start_up_sequence_is_answered_as_the_lms511_answered() {
+    let emu = Emulator::start(EmulatorConfig::default(), lms511_source()).unwrap();
+    let mut c = Client::connect(&emu);
+    let dialogue = capture_dialogue();
+    let capture_answer = |req: &[u8]| {
+        dialogue
+            .iter()
+            .find(|(r, _)| r == req)
+            .map(|(_, a)| a.clone())
+    };
+    let emit = |r: Request<'_>| {
+        let mut b = [0u8; 128];
+        let n = r.emit(Dialect::ColaB, &mut b).unwrap();
+        b[..n].to_vec()
+    };
+    let by_name = |name: &str| {
+        dialogue
+            .iter()
+            .find(|(r, _)| kind_of(r).1 == name)
+            .map(|(r, _)| r.clone())
+            .unwrap()
+    };
+    let mut sequence: Vec<Vec<u8>> = vec![emit(Request::Read("SCdevicestate"))];
+    for name in [
+        "SetAccessMode",
+        "EIHstCola",
+        "FirmwareVersion",
+        "SCdevicestate",
+        "ODoprh",
+        "ODpwrc",
+        "LocationName",
+    ] {
+        sequence.push(by_name(name));
+    }
+    // LMPoutputRange read / write / read, the fields, LIDinputstate, LMDscandatacfg w / r.
+    let capture_order: Vec<Vec<u8>> = dialogue.iter().map(|(r, _)| r.clone()).collect();
+    let from = capture_order
+        .iter()
+        .position(|r| kind_of(r).1 == "LMPoutputRange")
+        .unwrap();
+    let to = capture_order
+        .iter()
+        .position(|r| kind_of(r).1 == "LMCstartmeas")
+        .unwrap();
+    sequence.extend(capture_order[from..to].iter().cloned());
+    sequence.push(emit(Request::SetEchoFilter(lidar_driver::EchoFilter::All)));
+    for name in ["LFErec", "LIDoutputstate", "LIDinputstate"] {
+        sequence.push(emit(Request::Subscribe {
+            event: name,
+            enable: true,
+        }));
+    }
+    for name in ["LMCstartmeas", "Run"] {
+        sequence.push(by_name(name));
+    }
+    sequence.push(emit(Request::SUBSCRIBE_SCANS));
+    // The probe, before the login: a device out of configuration mode says ready (the
+    // capture asked only after the login, in configuration mode: busy).
+    let probe = c.ask(&sequence[0]);
+    let state = Answer::from_frame(lidar_driver::Frame::new_checked(&probe).unwrap());
+    assert_eq!(
+        state,
+        Ok(Answer::DeviceState(lidar_driver::DeviceState::Ready))
+    );
+    let mut replayed = 0;
+    for req in &sequence[1..] {
+        let got = c.ask(req);
+        let (kind, name) = kind_of(req);
+        match capture_answer(req) {
+            Some(want) => {
+                assert_eq!(got, want, "{kind} {name}");
+                replayed += 1;
+            }
+            None => {
+                let a = Answer::from_frame(lidar_driver::Frame::new_checked(&got).unwrap());
+                assert!(
+                    !matches!(a, Ok(Answer::Error(_))),
+                    "{kind} {name} refused: {a:?}"
+                );
+            }
+        }
+    }
+    assert!(replayed >= 47, "{replayed}");
+    // Scans follow, 1141 points each.
+    let end = Instant::now() + Duration::from_secs(2);
+    let mut scans = 0;
+    let mut buf = [0u8; 16384];
+    while Instant::now() < end && scans < 5 {
+        let mut got = std::mem::take(&mut c.ready);
+        if let Ok(n) = c.s.read(&mut buf) {
+            c.framer
+                .feed(&buf[..n], |r| got.push(r.unwrap().as_bytes().to_vec()));
+        }
+        for f in got {
+            if let Ok(s) =
+                lidar_driver::ScanData::new_checked(lidar_driver::Frame::new_checked(&f).unwrap())
+            {
+                assert_eq!(s.dist1().unwrap().len(), 1141);
+                scans += 1;
+            }
+        }
+    }
+    assert!(scans >= 5, "{scans} scans");
 }
 
 #[test]
@@ -118,7 +274,7 @@ fn cola_a_answers_carry_the_same_values() {
     let mut c = Client::connect(&emu);
     for (req_b, want_b) in capture_dialogue() {
         let (_, name) = kind_of(&req_b);
-        if !known(&name) {
+        if !typed(&name) {
             continue;
         }
         let r = Request::from_frame(lidar_driver::Frame::new_checked(&req_b).unwrap()).unwrap();
@@ -222,4 +378,16 @@ fn identity_from_a_recording_is_what_that_sensor_answered() {
         (id.output_range.start_1e4_deg, id.output_range.stop_1e4_deg)
     );
     assert!(!id.scan_data.remission, "the LMS111 capture has no RSSI");
+}
+
+/// The answers and events built into the emulator (`data/lms511_start_up.pcapng.json`) are
+/// exactly those of the LMS511 capture.
+#[test]
+fn the_built_in_answers_are_the_captures() {
+    let rec =
+        lidar_driver::recording::Recording::read_file(capture(sick_captures::LMS511_JSON)).unwrap();
+    assert_eq!(
+        lms5xx_emulator::RecordedAnswers::lms511_capture(),
+        lms5xx_emulator::RecordedAnswers::from_recording(&rec)
+    );
 }
