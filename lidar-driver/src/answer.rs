@@ -125,8 +125,16 @@ pub enum Answer<'a> {
     ScanDataConfig(ScanDataConfig),
     /// `sRA LMPscancfg`.
     ScanConfig(ScanConfig),
-    /// `sAN mLMPsetscancfg <u8>`: Ok or why it was refused.
-    SetScanConfig(Result<(), ScanConfigError>),
+    /// `sAN mLMPsetscancfg <u8> [<frequency> <sectors> <step> <start> <stop>]`: Ok or why it
+    /// was refused, and the parameters in effect after it (the LMS5xx's telegram listing:
+    /// the device answers the values it actually uses; `None` when a device sends the status
+    /// byte alone).
+    SetScanConfig {
+        /// Ok, or why it was refused.
+        result: Result<(), ScanConfigError>,
+        /// The scan configuration in effect after the request.
+        in_effect: Option<ScanConfig>,
+    },
     /// `sAN LMCstartmeas <u8>`: 0 = ok.
     StartMeasurement {
         /// Measurement started.
@@ -238,9 +246,14 @@ impl<'a> Answer<'a> {
                     Answer::ScanDataConfig(ScanDataConfig::read(&mut r)?)
                 }
                 (ReadAnswer, names::SCAN_CONFIG) => Answer::ScanConfig(ScanConfig::read(&mut r)?),
-                (MethodAnswer, names::SET_SCAN_CONFIG) => {
-                    Answer::SetScanConfig(ScanConfigError::from_code(r.u8()?).map_or(Ok(()), Err))
-                }
+                (MethodAnswer, names::SET_SCAN_CONFIG) => Answer::SetScanConfig {
+                    result: ScanConfigError::from_code(r.u8()?).map_or(Ok(()), Err),
+                    in_effect: if r.at_end() {
+                        None
+                    } else {
+                        Some(ScanConfig::read(&mut r)?)
+                    },
+                },
                 (MethodAnswer, names::START_MEASUREMENT) => {
                     Answer::StartMeasurement { ok: r.u8()? == 0 }
                 }
@@ -276,7 +289,7 @@ impl<'a> Answer<'a> {
             Answer::OutputRange(_) => (ReadAnswer, names::OUTPUT_RANGE),
             Answer::ScanDataConfig(_) => (ReadAnswer, names::SCAN_DATA_CONFIG),
             Answer::ScanConfig(_) => (ReadAnswer, names::SCAN_CONFIG),
-            Answer::SetScanConfig(_) => (MethodAnswer, names::SET_SCAN_CONFIG),
+            Answer::SetScanConfig { .. } => (MethodAnswer, names::SET_SCAN_CONFIG),
             Answer::StartMeasurement { .. } => (MethodAnswer, names::START_MEASUREMENT),
             Answer::StopMeasurement { .. } => (MethodAnswer, names::STOP_MEASUREMENT),
             Answer::Run { .. } => (MethodAnswer, names::RUN),
@@ -312,8 +325,11 @@ impl<'a> Answer<'a> {
             Answer::OutputRange(r) => r.write(&mut w)?,
             Answer::ScanDataConfig(c) => c.write(&mut w)?,
             Answer::ScanConfig(c) => c.write(&mut w)?,
-            Answer::SetScanConfig(r) => {
-                w.u8(r.err().map_or(0, |e| e.code()))?;
+            Answer::SetScanConfig { result, in_effect } => {
+                w.u8(result.err().map_or(0, |e| e.code()))?;
+                if let Some(c) = in_effect {
+                    c.write(&mut w)?;
+                }
             }
             Answer::StartMeasurement { ok } | Answer::StopMeasurement { ok } => {
                 w.u8(if ok { 0 } else { 1 })?;

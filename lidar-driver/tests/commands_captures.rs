@@ -139,7 +139,7 @@ fn a_display(a: &Answer<'_>) -> String {
 
 #[test]
 fn cola_a_answers_parse_like_cola_b() {
-    let cases: [(&[u8], Answer<'_>); 6] = [
+    let cases: [(&[u8], Answer<'_>); 7] = [
         (
             b"\x02sAN SetAccessMode 1\x03",
             Answer::AccessMode { accepted: true },
@@ -163,7 +163,24 @@ fn cola_a_answers_parse_like_cola_b() {
         ),
         (
             b"\x02sAN mLMPsetscancfg 2\x03",
-            Answer::SetScanConfig(Err(lidar_driver::ScanConfigError::Resolution)),
+            Answer::SetScanConfig {
+                result: Err(lidar_driver::ScanConfigError::Resolution),
+                in_effect: None,
+            },
+        ),
+        // The LMS500 operating instructions' example: accepted, with the parameters in effect.
+        (
+            b"\x02sAN mLMPsetscancfg 0 9C4 1 9C4 FFFF3CB0 1C3A90\x03",
+            Answer::SetScanConfig {
+                result: Ok(()),
+                in_effect: Some(lidar_driver::ScanConfig {
+                    frequency_1e2_hz: 2500,
+                    sectors: 1,
+                    step_1e4_deg: 2500,
+                    start_1e4_deg: -50_000,
+                    stop_1e4_deg: 1_850_000,
+                }),
+            },
         ),
         (
             b"\x02sEA LMDscandata 1\x03",

@@ -24,14 +24,22 @@ struct EventSubscription {
     sent: usize,
 }
 
-/// LMS511 frequency / resolution pairs (1/100 Hz, 1/10000°) within its 54 kHz shot rate.
-pub(crate) const LMS511_SCAN_MODES: [(u32, u32); 5] = [
-    (2500, 1667),
-    (3500, 2500),
-    (5000, 3333),
-    (7500, 5000),
-    (10000, 6667),
-];
+/// The LMS5xx's scan frequencies, 1/100 Hz (its operating instructions, `mLMPsetscancfg`).
+pub(crate) const LMS5XX_FREQUENCIES_1E2_HZ: [u32; 5] = [2500, 3500, 5000, 7500, 10000];
+
+/// The LMS5xx's angular resolutions, 1/10000° (the same table).
+pub(crate) const LMS5XX_STEPS_1E4_DEG: [u32; 7] = [1667, 2500, 3333, 5000, 6667, 7500, 10000];
+
+/// Most shots per second, 100 Hz units: the LMS5xx fires at 54 kHz, so a frequency and a
+/// resolution go together when `f · 360° / step` fits (25 Hz takes every resolution down to
+/// 0.1667°, 35 Hz down to 0.25°, 50 Hz 0.3333°, 75 Hz 0.5°, 100 Hz 0.6667°).
+const LMS5XX_MAX_SHOTS_100HZ: u32 = 540;
+
+/// Shots per second of a frequency and resolution, 100 Hz units (rounded).
+pub(crate) fn shots_100hz(frequency_1e2_hz: u32, step_1e4_deg: u32) -> u32 {
+    let s = u64::from(frequency_1e2_hz) * 360;
+    ((s + u64::from(step_1e4_deg) / 2) / u64::from(step_1e4_deg.max(1))) as u32
+}
 
 /// Settings that outlive a connection (the device keeps them until power-off).
 #[derive(Debug, Clone, PartialEq)]
@@ -301,9 +309,17 @@ impl<'s> Connection<'s> {
                 let r = check_scan_config(&c, self.shared.config.identity.field_of_view_1e4_deg);
                 if r.is_ok() {
                     st.scan_config = c;
+                    // The output range follows the new resolution and stays within the area.
+                    st.output_range.step_1e4_deg = c.step_1e4_deg;
+                    st.output_range.start_1e4_deg =
+                        st.output_range.start_1e4_deg.max(c.start_1e4_deg);
+                    st.output_range.stop_1e4_deg = st.output_range.stop_1e4_deg.min(c.stop_1e4_deg);
                     self.next_scan = None;
                 }
-                Reply::Answer(Answer::SetScanConfig(r))
+                Reply::Answer(Answer::SetScanConfig {
+                    result: r,
+                    in_effect: Some(st.scan_config),
+                })
             }
             Request::SetEchoFilter(f) => {
                 st.echo_filter = f;
@@ -464,6 +480,13 @@ impl<'s> Connection<'s> {
         };
         scan.channels16.retain(keep);
         scan.channels8.retain(keep);
+        let (sc, out) = (st.scan_config, st.output_range);
+        reshape(
+            &mut scan,
+            &sc,
+            out.start_1e4_deg.max(sc.start_1e4_deg),
+            out.stop_1e4_deg.min(sc.stop_1e4_deg),
+        );
         if !cfg.time {
             scan.time = None;
         }
@@ -501,20 +524,60 @@ fn check_scan_config(
     field_of_view_1e4_deg: (i32, i32),
 ) -> Result<(), lidar_driver::answer::ScanConfigError> {
     use lidar_driver::answer::ScanConfigError as E;
-    let freq_ok = LMS511_SCAN_MODES
-        .iter()
-        .any(|&(f, _)| f == c.frequency_1e2_hz);
-    let pair_ok = LMS511_SCAN_MODES
-        .iter()
-        .any(|&(f, s)| f == c.frequency_1e2_hz && s == c.step_1e4_deg);
-    let step_known = LMS511_SCAN_MODES.iter().any(|&(_, s)| s == c.step_1e4_deg);
+    let freq_ok = LMS5XX_FREQUENCIES_1E2_HZ.contains(&c.frequency_1e2_hz);
+    let step_ok = LMS5XX_STEPS_1E4_DEG.contains(&c.step_1e4_deg);
+    let pair_ok = shots_100hz(c.frequency_1e2_hz, c.step_1e4_deg) <= LMS5XX_MAX_SHOTS_100HZ;
     let (lo, hi) = field_of_view_1e4_deg;
-    match (freq_ok, pair_ok, step_known) {
-        (_, true, _) if c.start_1e4_deg >= lo && c.stop_1e4_deg <= hi && c.sectors == 1 => Ok(()),
-        (_, true, _) => Err(E::Area),
-        (true, false, _) => Err(E::Resolution),
-        (false, _, true) => Err(E::Frequency),
-        (false, _, false) => Err(E::FrequencyAndResolution),
+    let area_ok = c.sectors == 1
+        && c.start_1e4_deg >= lo
+        && c.stop_1e4_deg <= hi
+        && c.start_1e4_deg < c.stop_1e4_deg;
+    match (freq_ok, step_ok) {
+        (false, false) => Err(E::FrequencyAndResolution),
+        (false, true) => Err(E::Frequency),
+        // A resolution too fine for the frequency: the resolution is what cannot be had.
+        (true, false) => Err(E::Resolution),
+        (true, true) if !pair_ok => Err(E::Resolution),
+        (true, true) if !area_ok => Err(E::Area),
+        (true, true) => Ok(()),
+    }
+}
+
+/// Lays `scan`'s channels out as the device is configured: `step` and the angles from
+/// `start` to `stop` (1/10000°), each beam taking the source's nearest value (beams the
+/// source did not cover read 0, no echo), with the header's frequencies to match. A scan
+/// already laid out that way is left as it is.
+pub(crate) fn reshape(scan: &mut ScanRepr, c: &ScanConfig, start_1e4_deg: i32, stop_1e4_deg: i32) {
+    scan.header.scan_frequency_1e2_hz = c.frequency_1e2_hz;
+    scan.header.measurement_frequency_100hz = shots_100hz(c.frequency_1e2_hz, c.step_1e4_deg);
+    let step = c.step_1e4_deg.max(1);
+    let span = i64::from(stop_1e4_deg) - i64::from(start_1e4_deg);
+    // Rounded: the step is itself rounded to 1/10000° (1667 for 1/6°: 1140 steps span 190°).
+    let beams = ((span.max(0) + i64::from(step) / 2) / i64::from(step)) as usize + 1;
+    for ch in scan.channels16.iter_mut().chain(scan.channels8.iter_mut()) {
+        if ch.start_angle_1e4_deg == start_1e4_deg
+            && u32::from(ch.step_1e4_deg) == step
+            && ch.values.len() == beams
+        {
+            continue;
+        }
+        let (a0, d0) = (
+            i64::from(ch.start_angle_1e4_deg),
+            i64::from(ch.step_1e4_deg.max(1)),
+        );
+        let values = (0..beams)
+            .map(|i| {
+                let a = i64::from(start_1e4_deg) + i as i64 * i64::from(step);
+                let k = (a - a0 + d0 / 2).div_euclid(d0);
+                usize::try_from(k)
+                    .ok()
+                    .and_then(|k| ch.values.get(k).copied())
+                    .unwrap_or(0)
+            })
+            .collect();
+        ch.values = values;
+        ch.start_angle_1e4_deg = start_1e4_deg;
+        ch.step_1e4_deg = u16::try_from(step).unwrap_or(u16::MAX);
     }
 }
 
@@ -545,7 +608,8 @@ mod tests {
     use crate::config::LMS511_FOV_1E4_DEG;
 
     #[test]
-    fn lms511_scan_modes_are_checked() {
+    fn lms5xx_scan_modes_are_checked() {
+        use lidar_driver::answer::ScanConfigError as E;
         let mut c = ScanConfig {
             frequency_1e2_hz: 5000,
             sectors: 1,
@@ -553,29 +617,88 @@ mod tests {
             start_1e4_deg: -50_000,
             stop_1e4_deg: 1_850_000,
         };
-        assert_eq!(check_scan_config(&c, LMS511_FOV_1E4_DEG), Ok(()));
+        let check = |c: &ScanConfig| check_scan_config(c, LMS511_FOV_1E4_DEG);
+        assert_eq!(check(&c), Ok(()));
+        // Every resolution of the manual at 25 Hz, none finer than 0.3333° at 50 Hz.
+        for step in LMS5XX_STEPS_1E4_DEG {
+            let at = |f| ScanConfig {
+                frequency_1e2_hz: f,
+                step_1e4_deg: step,
+                ..c
+            };
+            assert_eq!(check(&at(2500)), Ok(()), "25 Hz at {step}");
+            assert_eq!(check(&at(5000)).is_ok(), step >= 3333, "50 Hz at {step}");
+            assert_eq!(check(&at(10000)).is_ok(), step >= 6667, "100 Hz at {step}");
+            assert_eq!(check(&at(3500)).is_ok(), step >= 2500, "35 Hz at {step}");
+        }
         c.step_1e4_deg = 1667;
-        assert_eq!(
-            check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(lidar_driver::answer::ScanConfigError::Resolution)
-        );
+        assert_eq!(check(&c), Err(E::Resolution));
         c.frequency_1e2_hz = 6000;
-        assert_eq!(
-            check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(lidar_driver::answer::ScanConfigError::Frequency)
-        );
+        assert_eq!(check(&c), Err(E::Frequency));
         c.step_1e4_deg = 1234;
-        assert_eq!(
-            check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(lidar_driver::answer::ScanConfigError::FrequencyAndResolution)
-        );
+        assert_eq!(check(&c), Err(E::FrequencyAndResolution));
         c.frequency_1e2_hz = 2500;
         c.step_1e4_deg = 1667;
         c.stop_1e4_deg = 2_000_000;
-        assert_eq!(
-            check_scan_config(&c, LMS511_FOV_1E4_DEG),
-            Err(lidar_driver::answer::ScanConfigError::Area)
+        assert_eq!(check(&c), Err(E::Area));
+        assert_eq!(shots_100hz(2500, 1667), 540);
+        assert_eq!(shots_100hz(3500, 2500), 504);
+    }
+
+    #[test]
+    fn scans_are_laid_out_as_configured() {
+        let mut scan = ScanRepr::parse(
+            &lidar_driver::ScanData::new_checked(
+                lidar_driver::Frame::new_checked(&first_capture_scan()).unwrap(),
+            )
+            .unwrap(),
         );
+        let original = scan.channels16[0].values.clone();
+        let c = ScanConfig {
+            frequency_1e2_hz: 5000,
+            sectors: 1,
+            step_1e4_deg: 3333,
+            start_1e4_deg: -50_000,
+            stop_1e4_deg: 1_850_000,
+        };
+        reshape(&mut scan, &c, c.start_1e4_deg, c.stop_1e4_deg);
+        let d = &scan.channels16[0];
+        assert_eq!((d.values.len(), d.step_1e4_deg), (571, 3333));
+        // Every second beam of the 1/6° scan.
+        for (i, v) in d.values.iter().enumerate() {
+            assert_eq!(*v, original[2 * i], "beam {i}");
+        }
+        assert_eq!(scan.channels8[0].values.len(), 571);
+        assert_eq!(
+            (
+                scan.header.scan_frequency_1e2_hz,
+                scan.header.measurement_frequency_100hz
+            ),
+            (5000, 540)
+        );
+        // An output range of 0°…180° at 0.5°: 361 beams from 0°.
+        let c = ScanConfig {
+            frequency_1e2_hz: 2500,
+            step_1e4_deg: 5000,
+            ..c
+        };
+        reshape(&mut scan, &c, 0, 1_800_000);
+        assert_eq!(scan.channels16[0].values.len(), 361);
+        assert_eq!(scan.channels16[0].start_angle_1e4_deg, 0);
+    }
+
+    /// The first scan of the LMS511 capture, as a frame.
+    fn first_capture_scan() -> Vec<u8> {
+        let rec = lidar_driver::recording::Recording::read_file(sick_captures::path(
+            sick_captures::LMS511_S2H,
+        ))
+        .unwrap();
+        rec.frames()
+            .frames
+            .into_iter()
+            .find(|f| lidar_driver::ScanData::new_checked(f.frame()).is_ok())
+            .unwrap()
+            .bytes
     }
 
     mod props {

@@ -339,6 +339,32 @@ fn scan_configuration_in_cola_a_is_applied() {
         "{log}"
     );
     assert!(log.contains("StepDone(WriteEchoFilter)"), "{log}");
+    // The scans follow the configuration: every second beam of the 1/6° recording, 571 of
+    // them at 0.3333°.
+    assert!(seen.scans.iter().all(|(d, _)| d.len() == 571));
+    drop(emu);
+}
+
+/// 25 Hz at 0.5° (one of the LMS5xx's pairs besides 25 Hz at 0.1667°) is accepted, answered
+/// with the parameters in effect, and the scans come at 0.5° with 381 beams.
+#[test]
+fn another_resolution_at_25_hz_is_accepted_and_the_scans_follow() {
+    let (emu, mut link) = emulate(EmulatorConfig::default());
+    let cfg = SessionConfig {
+        scan_config: Some(lidar_driver::ScanConfig {
+            frequency_1e2_hz: 2500,
+            sectors: 1,
+            step_1e4_deg: 5000,
+            start_1e4_deg: -50_000,
+            stop_1e4_deg: 1_850_000,
+        }),
+        ..fast_config()
+    };
+    let mut session = Session::new(vec![0u8; 16 * 1024], cfg);
+    let seen = run(&mut session, &mut link, 5, Duration::from_secs(10));
+    assert_eq!(seen.scans.len(), 5, "{:#?}", seen.log);
+    assert!(seen.scans.iter().all(|(d, _)| d.len() == 381));
+    assert!(seen.frequencies_1e2_hz.iter().all(|&f| f == 2500));
     drop(emu);
 }
 

@@ -831,8 +831,8 @@ impl Core {
                 Event::Info(I::OutputRange(r))
             }
             Answer::ScanDataConfig(c) => Event::Info(I::ScanDataConfig(c)),
-            Answer::SetScanConfig(r) => {
-                r.map_err(SessionError::ScanConfigRefused)?;
+            Answer::SetScanConfig { result, .. } => {
+                result.map_err(SessionError::ScanConfigRefused)?;
                 Event::StepDone(step)
             }
             Answer::ScanConfig(actual) => {

@@ -106,7 +106,10 @@ fn ok_answer(r: &Request<'_>) -> Answer<'static> {
             Answer::ScanDataConfig(SessionConfig::CAPTURE_SCAN_DATA)
         }
         Request::Read(names::SCAN_CONFIG) => Answer::ScanConfig(SCAN_50HZ),
-        Request::SetScanConfig(_) => Answer::SetScanConfig(Ok(())),
+        Request::SetScanConfig(c) => Answer::SetScanConfig {
+            result: Ok(()),
+            in_effect: Some(c),
+        },
         Request::StartMeasurement => Answer::StartMeasurement { ok: true },
         Request::Run => Answer::Run { ok: true },
         Request::Subscribe { .. } => Answer::EventAck {
@@ -336,7 +339,13 @@ fn method_accepted_restarts_the_answer_timeout() {
     clock.set(300); // 300 ms after the request, 150 ms after the second sMA: still waiting
     pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
     assert_eq!(s.phase(), Phase::StartingUp(Step::SetScanConfig));
-    io.send(Dialect::ColaB, Answer::SetScanConfig(Ok(())));
+    io.send(
+        Dialect::ColaB,
+        Answer::SetScanConfig {
+            result: Ok(()),
+            in_effect: None,
+        },
+    );
     pump(&mut s, &mut io, &clock, |r| Some(ok_answer(r)));
     assert_eq!(s.phase(), Phase::Streaming);
 }
