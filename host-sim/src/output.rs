@@ -168,7 +168,8 @@ fn write_file(
     w.flush().map_err(err)
 }
 
-/// Writes `trajectories.csv`, `metrics.json` and `scenario.toml` into `dir` (created if
+/// Writes `trajectories.csv`, `metrics.json` and `scenario.toml` (with a copy of a CSV
+/// centre line) into `dir` (created if
 /// needed); `prefix` is prepended to each name (e.g. `"p1-"`). Returns the paths written.
 pub fn write_run(
     dir: &Path,
@@ -183,9 +184,11 @@ pub fn write_run(
     let body = serde_json::to_string_pretty(&MetricsJson::new(log, m)).unwrap_or_default();
     write_file(&json, |w| w.write_all(body.as_bytes()))?;
     let toml = dir.join(format!("{prefix}scenario.toml"));
-    let text = log.scenario.to_toml();
-    write_file(&toml, |w| w.write_all(text.as_bytes()))?;
-    Ok(vec![csv, json, toml])
+    let scenario = log
+        .scenario
+        .write_self_contained(dir, prefix)
+        .map_err(|e| OutputError::new(&toml, e))?;
+    Ok([csv, json].into_iter().chain(scenario).collect())
 }
 
 #[cfg(test)]

@@ -248,3 +248,35 @@ fn a_recording_at_another_start_angle_is_localised_with_its_own_beam_angles() {
     assert_eq!(first.layout.start_angle_1e4_deg, 0);
     assert_eq!(usize::from(first.layout.beams), 1111);
 }
+
+/// A recording of a scenario whose centre line comes from a CSV carries a copy of the CSV
+/// (the issue: replay of the shipped S-bend example failed with "cannot read scenario
+/// …/s-bend-400m.csv"): moved anywhere, it replays on its own.
+#[test]
+fn a_recording_of_a_csv_centre_line_is_self_contained() {
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/s-bend-400m.toml");
+    let mut s = host_sim::scenario::Scenario::from_file(std::path::Path::new(example)).unwrap();
+    s.drive.end_m = s.drive.start_m + 15.0;
+    let options = RunOptions {
+        keep_scans: true,
+        progress: None,
+    };
+    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).unwrap();
+    let (_, map_file) = record::scenario_map(&s).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let written = record::write_recording(dir.path(), &log, &map_file).unwrap();
+    assert!(written
+        .iter()
+        .any(|p| p.ends_with(host_sim::scenario::CENTERLINE_COPY)));
+    // Moved elsewhere: the example's own CSV is no longer beside it.
+    let moved = tempfile::tempdir().unwrap();
+    for f in std::fs::read_dir(dir.path()).unwrap() {
+        let f = f.unwrap();
+        std::fs::copy(f.path(), moved.path().join(f.file_name())).unwrap();
+    }
+    drop(dir);
+    let sources = ReplaySources::in_dir(moved.path()).unwrap();
+    let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
+    assert_eq!(rep.source.scans, log.scans.len());
+    assert_same_metrics(&log.metrics(), &rep.log.metrics());
+}

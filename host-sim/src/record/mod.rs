@@ -172,9 +172,13 @@ pub fn write_recording(
     let p = path(files::MAP);
     std::fs::write(&p, map_file).map_err(io_err(&p))?;
     written.push(p);
+    // With a copy of a CSV centre line: everything a replay needs is in the recording.
     let p = path(files::SCENARIO);
-    std::fs::write(&p, log.scenario.to_toml()).map_err(io_err(&p))?;
-    written.push(p);
+    written.extend(
+        log.scenario
+            .write_self_contained(dir, "")
+            .map_err(io_err(&p))?,
+    );
     let p = path(files::README);
     std::fs::write(&p, readme::text(log, stream.len(), map_file.len())).map_err(io_err(&p))?;
     written.push(p);

@@ -255,6 +255,9 @@ pub struct Scenario {
     pub base_dir: PathBuf,
 }
 
+/// The name [`Scenario::write_self_contained`] gives the copy of a CSV centre line.
+pub const CENTERLINE_COPY: &str = "centerline.csv";
+
 fn default_name() -> String {
     "scenario".into()
 }
@@ -359,6 +362,26 @@ impl Scenario {
     /// The scenario as TOML (what `--out` writes next to the results, to rerun it).
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Writes the scenario into `dir` so that it stands on its own: `{prefix}scenario.toml`,
+    /// and a CSV centre line copied beside it as `{prefix}centerline.csv` (the TOML then
+    /// names that copy), so the directory reruns or replays without the original files.
+    /// Returns the files written.
+    pub fn write_self_contained(&self, dir: &Path, prefix: &str) -> std::io::Result<Vec<PathBuf>> {
+        let mut s = self.clone();
+        let mut written = Vec::new();
+        if let Some(csv) = &self.tunnel.csv {
+            let name = format!("{prefix}{CENTERLINE_COPY}");
+            let copy = dir.join(&name);
+            std::fs::copy(self.base_dir.join(csv), &copy)?;
+            s.tunnel.csv = Some(PathBuf::from(name));
+            written.push(copy);
+        }
+        let toml = dir.join(format!("{prefix}scenario.toml"));
+        std::fs::write(&toml, s.to_toml())?;
+        written.insert(0, toml);
+        Ok(written)
     }
 
     /// Checks every value's range; the error names the key.
