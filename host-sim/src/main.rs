@@ -292,6 +292,8 @@ fn run_with_progress(
 }
 
 fn cmd_run(a: &RunArgs) -> Result<(), String> {
+    check_output_dir("--out", a.out.as_deref())?;
+    check_output_dir("--record", a.record.as_deref())?;
     let s = load_scenario(&a.scenario)?;
     let est = match a.estimator {
         EstimatorArg::Localizer => EstimatorChoice::Localizer,
@@ -302,9 +304,9 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
     let log = run_with_progress(&s, est, &s.name, !a.quiet, keep)?;
     let m = log.metrics();
     if a.json {
-        out(&MetricsJson::new(&log, &m).to_json());
+        out(&MetricsJson::new(&log, &m).to_json())?;
     } else {
-        out(&report::run_report(&log, &m));
+        out(&report::run_report(&log, &m))?;
     }
     if let Some(dir) = &a.out {
         let mut files = output::write_run(dir, "", &log, &m).map_err(|e| e.to_string())?;
@@ -312,7 +314,7 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         files.extend(visuals::write_visuals(dir, &log, &map)?);
         if !a.json {
             for f in files {
-                out(&format!("wrote {}", f.display()));
+                out(&format!("wrote {}", f.display()))?;
             }
         }
     }
@@ -327,13 +329,14 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
                 dir.display(),
                 files.len(),
                 dir.display()
-            ));
+            ))?;
         }
     }
     Ok(())
 }
 
 fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
+    check_output_dir("--out", a.out.as_deref())?;
     let mut src = match ReplaySources::in_dir(&a.dir) {
         Ok(s) => s,
         // Every file given by flag: the directory only collects outputs.
@@ -385,7 +388,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
     let m = rep.log.metrics();
     if a.json {
         if has_truth {
-            out(&MetricsJson::new(&rep.log, &m).to_json());
+            out(&MetricsJson::new(&rep.log, &m).to_json())?;
         } else {
             return Err("no ground truth to score against: --json needs ground_truth.csv".into());
         }
@@ -394,18 +397,18 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         out(&format!(
             "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged) with {} odometry readings",
             sc.scans, sc.format, sc.time_source, sc.other_frames, sc.bad_frames, sc.odometry_readings
-        ));
+        ))?;
         if has_truth {
             out(&format!(
                 "{} scans scored against ground truth\n",
                 sc.scored_scans
-            ));
-            out(&report::run_report(&rep.log, &m));
+            ))?;
+            out(&report::run_report(&rep.log, &m))?;
         } else if let Some(last) = rep.steps.last() {
             out(&format!(
                 "no ground truth: no metrics. Last estimate at t = {:.3} s: x {:.3} m, y {:.3} m, heading {:.4} rad, status {}",
                 last.t_s, last.estimate.x_m, last.estimate.y_m, last.estimate.theta_rad, last.status
-            ));
+            ))?;
         }
     }
     if let Some(dir) = &a.out {
@@ -422,7 +425,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         }
         if !a.json {
             for f in files {
-                out(&format!("wrote {}", f.display()));
+                out(&format!("wrote {}", f.display()))?;
             }
         }
     }
@@ -460,8 +463,8 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
         false,
     )?;
     let (mw, mh, mo) = (with.metrics(), holes.metrics(), without.metrics());
-    out("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n");
-    out(&format!("{}\n", report::scenario_line(&with)));
+    out("host-sim demo — loc-core's localiser driving through a simulated mining tunnel\n")?;
+    out(&format!("{}\n", report::scenario_line(&with)))?;
     let cols = [
         Column {
             heading: "P1 landmarks".into(),
@@ -488,17 +491,17 @@ fn cmd_demo(seed: u64) -> Result<(), String> {
             odometry: true,
         },
     ];
-    out(&report::comparison_table(&cols));
+    out(&report::comparison_table(&cols))?;
     out(&format!(
         "Without landmarks the walls still fix the lateral position and heading, but nothing fixes\n\
          the position along the tunnel: it drifts with odometry. With landmarks every {:.1} m (±0.625 m)\n\
          the error stays at the lidar's noise level for the whole drive.",
         base.landmark_choice().map(|c| c.spacing_m()).unwrap_or(0.0)
-    ));
+    ))?;
     out(&format!(
         "\n(demo took {:.1} s)",
         started.elapsed().as_secs_f64()
-    ));
+    ))?;
     Ok(())
 }
 
@@ -560,7 +563,7 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
             let text = map_export::to_json(&map).to_pretty();
             match &a.out {
                 Some(p) => write_file(p, text.as_bytes())?,
-                None => out(&text),
+                None => out(&text)?,
             }
         }
         MapFormat::Postcard => {
@@ -582,16 +585,49 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// Prints a line to stdout; a closed pipe (`| head`) ends output quietly instead of
-/// panicking.
-fn out(text: &str) {
+/// Prints a line to stdout. A closed pipe (`| head`) ends output quietly; any other
+/// failure (a full disk, `> /dev/full`) is an error: output asked for and lost is not a
+/// success.
+fn out(text: &str) -> Result<(), String> {
     use std::io::Write;
     let mut o = std::io::stdout().lock();
-    let _ = writeln!(o, "{text}");
+    match writeln!(o, "{text}").and_then(|()| o.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(format!("cannot write to standard output: {e}"))
+        }
+        _ => Ok(()),
+    }
 }
 
+/// Writes `bytes` to the file `p`, or to standard output when `p` is `-`.
 fn write_file(p: &Path, bytes: &[u8]) -> Result<(), String> {
+    if p == Path::new("-") {
+        use std::io::Write;
+        let mut o = std::io::stdout().lock();
+        return o
+            .write_all(bytes)
+            .and_then(|()| o.flush())
+            .map_err(|e| format!("cannot write to standard output: {e}"));
+    }
     std::fs::write(p, bytes).map_err(|e| format!("cannot write {}: {e}", p.display()))
+}
+
+/// Checks, before any work, that `dir` can be an output directory: not an existing file,
+/// not `-` (a directory of several files cannot go to standard output).
+fn check_output_dir(flag: &str, dir: Option<&Path>) -> Result<(), String> {
+    let Some(dir) = dir else { return Ok(()) };
+    if dir == Path::new("-") {
+        return Err(format!(
+            "{flag} - : {flag} writes a directory of several files; give a directory (standard output takes --json)"
+        ));
+    }
+    if dir.exists() && !dir.is_dir() {
+        return Err(format!(
+            "{flag} {}: exists and is not a directory; give a new or an existing directory",
+            dir.display()
+        ));
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
