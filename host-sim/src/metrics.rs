@@ -42,6 +42,17 @@ pub struct Sample {
     pub update_us: f64,
 }
 
+/// The larger of `a` and `b`, NaN when either is: a maximum over errors one of which cannot
+/// be computed is not a number (JSON `null`), never the maximum of the others — `f64::max`
+/// would drop the NaN and report a clean 0.
+fn max_or_nan(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
 /// Accuracy figures of one pose source (the localiser, or odometry alone).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Accuracy {
@@ -142,6 +153,10 @@ const PROJECTION_WINDOW_M: f64 = 80.0;
 /// too far along a 250 m radius is 0.2 m off the truth's tangent line, yet exactly where
 /// it should be across the tunnel).
 fn split_error(line: &CenterLine, s: &Sample, est: SimPose) -> (f64, f64) {
+    // A projection of a non-finite point would land somewhere: it has no split.
+    if !(est.x_m.is_finite() && est.y_m.is_finite()) {
+        return (f64::NAN, f64::NAN);
+    }
     let t = line.project(s.truth.x_m, s.truth.y_m, s.chainage_m, 1.0);
     let e = line.project(est.x_m, est.y_m, s.chainage_m, PROJECTION_WINDOW_M);
     (e.s_m - t.s_m, e.lateral_m - t.lateral_m)
@@ -181,10 +196,10 @@ fn accuracy(line: &CenterLine, samples: &[Sample], pick: impl Fn(&Sample) -> Sim
         rms_eq2: mse.sqrt(),
         position_rms_m: rms(samples.iter().map(pos2)),
         heading_rms_rad: rms(samples.iter().map(th2)),
-        max_position_error_m: samples.iter().map(|s| pos2(s).sqrt()).fold(0.0, f64::max),
+        max_position_error_m: samples.iter().map(|s| pos2(s).sqrt()).fold(0.0, max_or_nan),
         along_rms_m: rms(splits.iter().map(|e| e.0 * e.0)),
         across_rms_m: rms(splits.iter().map(|e| e.1 * e.1)),
-        max_along_error_m: splits.iter().map(|e| e.0.abs()).fold(0.0, f64::max),
+        max_along_error_m: splits.iter().map(|e| e.0.abs()).fold(0.0, max_or_nan),
         first_100m_position_rms_m: rms(samples
             .iter()
             .filter(|s| s.distance_m <= STRETCH_M)
@@ -253,7 +268,7 @@ pub fn compute(line: &CenterLine, samples: &[Sample], bin_m: f64) -> Metrics {
         } else {
             samples.iter().map(|s| s.update_us).sum::<f64>() / scans as f64
         },
-        max_us_per_scan: samples.iter().map(|s| s.update_us).fold(0.0, f64::max),
+        max_us_per_scan: samples.iter().map(|s| s.update_us).fold(0.0, max_or_nan),
         by_distance,
     }
 }
@@ -269,6 +284,41 @@ mod tests {
             y_m: y,
             theta_rad: t,
         }
+    }
+
+    /// An estimate that is not a number (a NaN start the localiser refused) gives figures
+    /// that are not numbers either, never a clean 0.
+    #[test]
+    fn a_nan_estimate_is_no_figure() {
+        let line = CenterLine::from_pieces(&[CurvePiece {
+            length_m: 30.0,
+            curvature_per_m: 0.0,
+        }])
+        .unwrap();
+        let samples: Vec<Sample> = (0..10)
+            .map(|i| {
+                let d = f64::from(i);
+                Sample {
+                    t_s: d,
+                    distance_m: d,
+                    chainage_m: d,
+                    truth: pose(d, 0.0, 0.0),
+                    estimate: pose(f64::NAN, f64::NAN, f64::NAN),
+                    odometry: pose(d, 0.0, 0.0),
+                    sigma: (0.0, 0.0, 0.0),
+                    update_us: 1.0,
+                }
+            })
+            .collect();
+        let a = compute(&line, &samples, 10.0).localizer;
+        assert!(
+            a.max_position_error_m.is_nan(),
+            "{}",
+            a.max_position_error_m
+        );
+        assert!(a.position_rms_m.is_nan() && a.max_along_error_m.is_nan());
+        let json = serde_json::to_value(a).unwrap();
+        assert!(json["max_position_error_m"].is_null(), "{json}");
     }
 
     #[test]

@@ -38,6 +38,15 @@ pub enum CsvError {
         /// The cell's text.
         text: String,
     },
+    /// A cell that must hold a value is empty.
+    MissingValue {
+        /// The file.
+        path: PathBuf,
+        /// Line number, 1-based.
+        line: usize,
+        /// The column's name.
+        column: &'static str,
+    },
 }
 
 impl fmt::Display for CsvError {
@@ -61,7 +70,12 @@ impl fmt::Display for CsvError {
                 text,
             } => write!(
                 f,
-                "{} line {line}, column `{column}`: `{text}` is not a number",
+                "{} line {line}, column `{column}`: `{text}` is not a finite number",
+                path.display()
+            ),
+            CsvError::MissingValue { path, line, column } => write!(
+                f,
+                "{} line {line}: column `{column}` is empty, and it needs a value",
                 path.display()
             ),
         }
@@ -70,12 +84,15 @@ impl fmt::Display for CsvError {
 
 impl std::error::Error for CsvError {}
 
-/// A numeric CSV table: named columns, rows of `f64` (an empty cell reads as NaN).
+/// A numeric CSV table: named columns, rows of `f64` (an empty cell reads as NaN, "no
+/// value"; a written `NaN` or `inf` is refused: a measurement is finite).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CsvTable {
     path: PathBuf,
     names: Vec<String>,
     rows: Vec<Vec<f64>>,
+    /// The file's line number (1-based) of each row.
+    lines: Vec<usize>,
 }
 
 impl CsvTable {
@@ -101,22 +118,27 @@ impl CsvTable {
         };
         let names: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
         let mut rows = Vec::new();
+        let mut row_lines = Vec::new();
         for (i, line) in lines {
+            row_lines.push(i + 1);
             let mut row = Vec::with_capacity(names.len());
             for (k, cell) in line.split(',').enumerate() {
                 let cell = cell.trim();
                 let v = if cell.is_empty() {
                     f64::NAN
                 } else {
-                    cell.parse::<f64>().map_err(|_| CsvError::BadNumber {
-                        path: path.to_path_buf(),
-                        line: i + 1,
-                        column: names
-                            .get(k)
-                            .cloned()
-                            .unwrap_or_else(|| format!("#{}", k + 1)),
-                        text: cell.to_string(),
-                    })?
+                    cell.parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or_else(|| CsvError::BadNumber {
+                            path: path.to_path_buf(),
+                            line: i + 1,
+                            column: names
+                                .get(k)
+                                .cloned()
+                                .unwrap_or_else(|| format!("#{}", k + 1)),
+                            text: cell.to_string(),
+                        })?
                 };
                 row.push(v);
             }
@@ -127,6 +149,7 @@ impl CsvTable {
             path: path.to_path_buf(),
             names,
             rows,
+            lines: row_lines,
         })
     }
 
@@ -147,6 +170,22 @@ impl CsvTable {
     /// The rows.
     pub fn rows(&self) -> &[Vec<f64>] {
         &self.rows
+    }
+
+    /// The value of column `name` in row `row` (0-based), which must be there: a missing
+    /// column or an empty cell is an error naming the file and the line.
+    pub fn value(&self, row: usize, name: &'static str) -> Result<f64, CsvError> {
+        let c = self.column(name)?;
+        let v = self.rows.get(row).map_or(f64::NAN, |r| cell(r, c));
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(CsvError::MissingValue {
+                path: self.path.clone(),
+                line: self.lines.get(row).copied().unwrap_or(0),
+                column: name,
+            })
+        }
     }
 }
 

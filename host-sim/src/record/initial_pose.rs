@@ -8,7 +8,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use super::csv_table::{cell, CsvError, CsvTable};
+use super::csv_table::{CsvError, CsvTable};
 use crate::closed_loop::RunLog;
 use crate::vehicle::SimPose;
 
@@ -51,27 +51,49 @@ pub fn write(w: &mut dyn Write, p: &InitialPose) -> std::io::Result<()> {
 /// Reads the file (its first data row); `None` if it has no data row.
 pub fn read(path: &Path) -> Result<Option<InitialPose>, CsvError> {
     let t = CsvTable::read(path)?;
-    let c = [
-        t.column("x_m")?,
-        t.column("y_m")?,
-        t.column("theta_rad")?,
-        t.column("sigma_xy_m")?,
-        t.column("sigma_theta_rad")?,
-    ];
-    Ok(t.rows().first().map(|r| InitialPose {
+    if t.rows().is_empty() {
+        // The columns must still be there: a file of another kind is not "no pose".
+        for name in ["x_m", "y_m", "theta_rad", "sigma_xy_m", "sigma_theta_rad"] {
+            t.column(name)?;
+        }
+        return Ok(None);
+    }
+    // Every value of the pose is required: a NaN start would leave nothing to measure.
+    Ok(Some(InitialPose {
         pose: SimPose {
-            x_m: cell(r, c[0]),
-            y_m: cell(r, c[1]),
-            theta_rad: cell(r, c[2]),
+            x_m: t.value(0, "x_m")?,
+            y_m: t.value(0, "y_m")?,
+            theta_rad: t.value(0, "theta_rad")?,
         },
-        sigma_xy_m: cell(r, c[3]),
-        sigma_theta_rad: cell(r, c[4]),
+        sigma_xy_m: t.value(0, "sigma_xy_m")?,
+        sigma_theta_rad: t.value(0, "sigma_theta_rad")?,
     }))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_start_that_is_not_a_number_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("initial_pose.csv");
+        let header = "x_m,y_m,theta_rad,sigma_xy_m,sigma_theta_rad\n";
+        std::fs::write(&p, format!("{header}NaN,0,0,0.05,0.01\n")).unwrap();
+        let e = read(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("line 2") && e.contains("x_m") && e.contains("finite"),
+            "{e}"
+        );
+        std::fs::write(&p, format!("{header}1,,0,0.05,0.01\n")).unwrap();
+        let e = read(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("line 2") && e.contains("y_m") && e.contains("empty"),
+            "{e}"
+        );
+        std::fs::write(&p, header).unwrap();
+        assert!(read(&p).unwrap().is_none());
+    }
 
     #[test]
     fn round_trips() {
