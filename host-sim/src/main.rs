@@ -395,8 +395,15 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
     } else {
         let sc = &rep.source;
         out(&format!(
-            "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged) with {} odometry readings",
-            sc.scans, sc.format, sc.time_source, sc.other_frames, sc.bad_frames, sc.odometry_readings
+            "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged frames, {} damaged scan telegrams dropped, {} damaged file parts read around) with {} odometry readings",
+            sc.scans,
+            sc.format,
+            sc.time_source,
+            sc.other_frames,
+            sc.bad_frames,
+            sc.damaged_scans,
+            sc.file_damage,
+            sc.odometry_readings
         ))?;
         if has_truth {
             out(&format!(

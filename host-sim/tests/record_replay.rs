@@ -280,3 +280,63 @@ fn a_recording_of_a_csv_centre_line_is_self_contained() {
     assert_eq!(rep.source.scans, log.scans.len());
     assert_same_metrics(&log.metrics(), &rep.log.metrics());
 }
+
+/// Damage in the scanner stream loses only the damaged telegrams: a flipped bit, a cut in the
+/// middle of a telegram and garbage between two telegrams each drop at most the telegram they
+/// hit; the replay runs on the others, at their own times, names each lost one by its row and
+/// byte offset, and still localises.
+#[test]
+fn a_damaged_stream_loses_only_the_damaged_telegrams() {
+    let (log, dir, _) = recorded_run(7);
+    let n = log.scans.len();
+    let stream_path = dir.path().join(files::SCANNER);
+    let mut stream = std::fs::read(&stream_path).unwrap();
+    let telegram = 2391usize;
+    // Garbage between telegrams 60 and 61 (done first: the offsets below stay valid).
+    let garbage = [0x55u8; 37];
+    stream.splice(61 * telegram..61 * telegram, garbage);
+    // 500 bytes cut out of the middle of telegram 40.
+    stream.drain(40 * telegram + 900..40 * telegram + 1400);
+    // A flipped bit in a range value of telegram 10 (its checksum no longer matches).
+    stream[10 * telegram + 1200] ^= 0x10;
+    std::fs::write(&stream_path, &stream).unwrap();
+
+    let sources = ReplaySources::in_dir(dir.path()).unwrap();
+    let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
+    assert_eq!(rep.source.time_source, TimeSource::Sidecar);
+    assert_eq!(rep.source.scans, n - 2, "{:?}", rep.warnings);
+    assert_eq!(rep.source.damaged_scans, 2);
+    let lost: Vec<&String> = rep
+        .warnings
+        .iter()
+        .filter(|w| w.contains("dropped"))
+        .collect();
+    assert_eq!(lost.len(), 2, "{:?}", rep.warnings);
+    assert!(
+        lost[0].contains("scan 10 at byte 23910"),
+        "{:?}",
+        rep.warnings
+    );
+    assert!(
+        lost[1].contains("scan 40 at byte 95640"),
+        "{:?}",
+        rep.warnings
+    );
+    // Every surviving scan keeps its own time: the times are the run's minus the two lost.
+    let mut expected: Vec<f64> = log.scans.iter().map(|s| s.t_s).collect();
+    expected.remove(40);
+    expected.remove(10);
+    let got: Vec<f64> = rep.steps.iter().map(|s| s.t_s).collect();
+    assert_eq!(got, expected);
+    // Up to the first damage the estimates are the run's own; after it the localiser goes on.
+    for (a, b) in log.samples.iter().zip(&rep.log.samples).take(10) {
+        assert_eq!(a.estimate, b.estimate, "at t = {}", a.t_s);
+    }
+    let m = rep.log.metrics();
+    assert!(
+        m.localizer.position_rms_m < 2.0 * log.metrics().localizer.position_rms_m + 1e-3,
+        "{} vs {}",
+        m.localizer.position_rms_m,
+        log.metrics().localizer.position_rms_m
+    );
+}

@@ -134,3 +134,95 @@ fn pcap_with_retransmissions_and_reordering_gives_the_same_scans() {
     assert!(tcp.out_of_order > 0, "{tcp:?}");
     check_tim(&scans(&rec));
 }
+
+/// The scans of a damaged recording that decode (frames the framer drops are not counted).
+fn intact_scans(rec: &Recording) -> usize {
+    rec.frames()
+        .frames
+        .iter()
+        .filter(|f| ScanData::new_checked(f.frame()).is_ok())
+        .count()
+}
+
+/// The end offset of every block of a pcapng file.
+fn block_ends(b: &[u8]) -> Vec<usize> {
+    let mut ends = Vec::new();
+    let mut at = 0;
+    while at + 8 <= b.len() {
+        let len = u32::from_le_bytes(b[at + 4..at + 8].try_into().unwrap()) as usize;
+        at += len;
+        ends.push(at);
+    }
+    ends
+}
+
+/// A pcapng cut at any byte keeps every scan whose blocks are complete: exactly the scans of
+/// the file cut at its last whole block before the cut, and the cut is reported.
+#[test]
+fn a_pcapng_cut_anywhere_keeps_the_scans_of_its_complete_blocks() {
+    let full = read(TIM_PCAPNG);
+    let ends = block_ends(&full);
+    assert_eq!(*ends.last().unwrap(), full.len());
+    let mut checked = 0;
+    for cut in (1..full.len())
+        .step_by(97)
+        .chain(ends.iter().flat_map(|&e| [e - 1, e, e + 1]))
+    {
+        if cut >= full.len() || cut < 32 {
+            continue;
+        }
+        let whole = ends
+            .iter()
+            .copied()
+            .filter(|&e| e <= cut)
+            .max()
+            .unwrap_or(0);
+        let Ok(expected) = Recording::parse(&full[..whole]) else {
+            continue; // not even the section header: nothing to keep
+        };
+        let got = Recording::parse(&full[..cut]).unwrap();
+        assert_eq!(intact_scans(&got), intact_scans(&expected), "cut at {cut}");
+        assert_eq!(
+            got.damage.is_empty(),
+            cut == whole,
+            "cut at {cut}: {:?}",
+            got.damage
+        );
+        checked += 1;
+    }
+    assert!(checked > 600, "{checked}");
+}
+
+/// One bad block length in the middle loses the packets of that block only: reading resumes
+/// at the next block, and the damage is reported with its offset.
+#[test]
+fn a_bad_block_length_loses_only_that_block() {
+    let mut b = read(TIM_PCAPNG);
+    let ends = block_ends(&b);
+    let at = ends[ends.len() / 2];
+    b[at + 4..at + 8].copy_from_slice(&7u32.to_le_bytes());
+    let rec = Recording::parse(&b).unwrap();
+    assert_eq!(rec.damage.len(), 1, "{:?}", rec.damage);
+    assert_eq!(rec.damage[0].offset, at);
+    let n = intact_scans(&rec);
+    // 16 scans, each over two TCP segments: at most the one telegram of the lost block.
+    assert!((15..=16).contains(&n), "{n}");
+}
+
+/// A SICK `.pcapng.json` cut in the middle keeps its complete records.
+#[test]
+fn a_truncated_sick_json_keeps_its_complete_records() {
+    let b = read(LMS511_JSON);
+    let cut = b.len() / 2;
+    let rec = Recording::parse(&b[..cut]).unwrap();
+    assert_eq!(rec.damage.len(), 1, "{:?}", rec.damage);
+    assert!(rec.damage[0].to_string().contains("cut short"));
+    let n = intact_scans(&rec);
+    assert!((80..174).contains(&n), "{n}");
+    // Every scan kept is one of the full file's, in order.
+    let full = Recording::parse(&b).unwrap().frames().frames;
+    let kept = rec.frames().frames;
+    for (a, k) in full.iter().zip(&kept) {
+        assert_eq!(a.bytes, k.bytes);
+    }
+}

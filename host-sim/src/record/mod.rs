@@ -4,7 +4,7 @@
 //! | file | what |
 //! |---|---|
 //! | `scanner.colab.bin` | the LMS511's CoLa-B byte stream: one `sSN LMDscandata` telegram per scan ([`scanner_telegram`]) |
-//! | `scanner.colab.times.csv` | per telegram: `index, t_s` (host receive time), `offset_bytes, length_bytes` in the stream |
+//! | `scanner.colab.times.csv` | per telegram: `index, t_s` (host receive time), `offset_bytes, length_bytes` in the stream, `telegram_counter` (the telegram's own counter, pairs rows and telegrams around damage) |
 //! | `odometry.csv` | per odometry reading: `t_s, dt_s, v_mps, omega_radps, dx_m, dy_m, dtheta_rad` ([`odometry_csv`]) |
 //! | `ground_truth.csv` | `t_s, x_m, y_m, theta_rad, distance_m, chainage_m`: the start (t = 0), then one row per scan ([`truth_csv`]) |
 //! | `initial_pose.csv` | the pose the localiser starts from and its σ ([`initial_pose`]) |
@@ -138,16 +138,17 @@ pub fn write_recording(
     // The scanner stream and its receive times.
     let mut telegrams = scanner_telegram::Lms511Telegrams::new(log.scenario.lidar.rate);
     let mut stream = Vec::new();
-    let mut times = String::from("index,t_s,offset_bytes,length_bytes\n");
+    let mut times = String::from("index,t_s,offset_bytes,length_bytes,telegram_counter\n");
     for (index, scan) in log.scans.iter().enumerate() {
         let frame = telegrams
             .next_frame(scan)
             .map_err(|error| RecordError::Telegram { index, error })?;
         times.push_str(&format!(
-            "{index},{},{},{}\n",
+            "{index},{},{},{},{}\n",
             scan.t_s,
             stream.len(),
-            frame.len()
+            frame.len(),
+            telegrams.telegram_counter()
         ));
         stream.extend_from_slice(&frame);
     }

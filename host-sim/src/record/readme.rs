@@ -35,7 +35,9 @@ world frame of the map (x, y in metres; headings in radians, counter-clockwise, 
 {times}
     Columns: index, t_s (the vehicle computer's time stamp of the telegram, s; the simulation
     delivers each scan at the instant it is taken, a real logger stamps it on receipt),
-    offset_bytes and length_bytes (where the telegram sits in {scanner}).
+    offset_bytes and length_bytes (where the telegram sits in {scanner}), telegram_counter
+    (the telegram's own counter: a replay pairs rows and telegrams by it, so a damaged or
+    cut telegram loses only itself).
 
 {odometry}
     One row per odometry reading at {odo_hz} Hz. Columns: t_s (end of the interval, s), dt_s

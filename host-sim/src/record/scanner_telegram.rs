@@ -67,7 +67,7 @@ impl Lms511Telegrams {
             device_number: 1,
             serial_number: self.serial,
             device_status: if first { [1, 0] } else { [0, 0] },
-            telegram_counter: (self.telegrams_sent % 65_536) as u16,
+            telegram_counter: self.telegram_counter(),
             scan_counter: (scans_since_power_up % 65_536) as u16,
             time_since_startup_us: startup_us_u32,
             time_of_transmission_us: startup_us_u32
@@ -99,6 +99,12 @@ impl Lms511Telegrams {
             time: Some(clock_at(scan.t_s)),
             event: None,
         }
+    }
+
+    /// The telegram counter of the last telegram made (the scanner's u16 count of telegrams
+    /// sent, wrapping; 0 before the first).
+    pub fn telegram_counter(&self) -> u16 {
+        (self.telegrams_sent % 65_536) as u16
     }
 
     /// The CoLa-B frame of a scan (STX STX STX STX, length, payload, XOR checksum).

@@ -244,6 +244,10 @@ pub struct ScanSummary {
     pub other_frames: usize,
     /// Damaged frames dropped by the framer.
     pub bad_frames: usize,
+    /// Scan telegrams dropped because they do not decode (each one is in the warnings).
+    pub damaged_scans: usize,
+    /// Damaged parts of the capture file read around (each one is in the warnings).
+    pub file_damage: usize,
 }
 
 /// Runs a replay with the chosen estimator.
@@ -264,8 +268,21 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         })?;
     let recorded = scan_source::read_scans(&sources.scanner, sources.scanner_times.as_deref())?;
     let odometry = odometry_csv::read(&sources.odometry)?;
+    // Damage is reported, not fatal: the replay runs on every scan that survived it.
     let warnings: Vec<String> = clock_warning(&odometry, &recorded.scans)
         .into_iter()
+        .chain(
+            recorded
+                .file_damage
+                .iter()
+                .map(|d| format!("scanner recording: {d}")),
+        )
+        .chain(
+            recorded
+                .damaged
+                .iter()
+                .map(|d| format!("scanner recording: {d}")),
+        )
         .collect();
     let truth = match &sources.ground_truth {
         Some(p) => Some(truth_csv::read(p)?),
@@ -325,6 +342,8 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         time_source: recorded.time_source,
         other_frames: recorded.other_frames,
         bad_frames: recorded.bad_frames,
+        damaged_scans: recorded.damaged.len(),
+        file_damage: recorded.file_damage.len(),
     };
     let world = WorldSummary::of_design(&line, scenario.tunnel.width_m, &map);
     let log = RunLog {

@@ -49,6 +49,35 @@ pub struct RecordedScans {
     pub other_frames: usize,
     /// Frames the framer dropped (bad checksum, bad length, truncated).
     pub bad_frames: usize,
+    /// Scan telegrams dropped because they are damaged (the others were kept).
+    pub damaged: Vec<DamagedScan>,
+    /// Damaged parts of the file that were read around (pcap / pcapng / JSON).
+    pub file_damage: Vec<lidar_driver::recording::RecordingDamage>,
+}
+
+/// A scan telegram that was dropped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DamagedScan {
+    /// Its times file row when rows and telegrams are paired by telegram counter, else the
+    /// count of scan telegrams before it in the stream.
+    pub index: usize,
+    /// Its byte offset in the stream, when known (from the times file).
+    pub offset_bytes: Option<u64>,
+    /// Why it was dropped.
+    pub reason: String,
+}
+
+impl fmt::Display for DamagedScan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.offset_bytes {
+            Some(o) => write!(
+                f,
+                "scan {} at byte {o} dropped: {}",
+                self.index, self.reason
+            ),
+            None => write!(f, "scan {} dropped: {}", self.index, self.reason),
+        }
+    }
 }
 
 /// Why a scanner recording could not be used.
@@ -60,25 +89,6 @@ pub enum ScanSourceError {
         path: PathBuf,
         /// lidar-driver's reason.
         source: RecordingError,
-    },
-    /// A scan telegram is malformed.
-    Scan {
-        /// Index of the scan telegram.
-        index: usize,
-        /// The decoder's reason.
-        reason: String,
-    },
-    /// A scan has no DIST1 channel.
-    NoDistances {
-        /// Index of the scan.
-        index: usize,
-    },
-    /// A scan has more beams than the localiser's scan holds.
-    TooManyBeams {
-        /// Index of the scan.
-        index: usize,
-        /// Beams in the telegram.
-        beams: usize,
     },
     /// The recording holds no scans.
     NoScans {
@@ -94,6 +104,13 @@ pub enum ScanSourceError {
         /// Scans in the stream.
         scans: usize,
     },
+    /// No telegram's counter is in the sidecar's `telegram_counter` column.
+    SidecarUnpaired {
+        /// Rows in the sidecar.
+        rows: usize,
+        /// Scan telegrams in the stream.
+        scans: usize,
+    },
 }
 
 impl fmt::Display for ScanSourceError {
@@ -102,18 +119,6 @@ impl fmt::Display for ScanSourceError {
             ScanSourceError::Recording { path, source } => {
                 write!(f, "{}: {source}", path.display())
             }
-            ScanSourceError::Scan { index, reason } => {
-                write!(f, "scan telegram {index} is malformed: {reason}")
-            }
-            ScanSourceError::NoDistances { index } => write!(
-                f,
-                "scan telegram {index} has no DIST1 channel (configure the scanner's output with LMDscandatacfg: first echo)"
-            ),
-            ScanSourceError::TooManyBeams { index, beams } => write!(
-                f,
-                "scan telegram {index} has {beams} beams, more than the {} a loc-core scan holds: configure the scanner for 0.1667 deg over 190 deg or coarser",
-                loc_core::scan::LMS511_MAX_BEAMS
-            ),
             ScanSourceError::NoScans { path } => {
                 write!(f, "{} holds no LMDscandata telegram", path.display())
             }
@@ -122,103 +127,222 @@ impl fmt::Display for ScanSourceError {
                 f,
                 "the scan times file has {rows} rows but the stream holds {scans} scans: they do not belong together"
             ),
+            ScanSourceError::SidecarUnpaired { rows, scans } => write!(
+                f,
+                "none of the stream's {scans} scan telegrams has its telegram counter in the {rows} rows of the scan times file: they do not belong together"
+            ),
         }
     }
 }
 
 impl std::error::Error for ScanSourceError {}
 
+/// A scan telegram's DIST1 channel as a [`LidarScan`] (time still 0), or why it cannot be.
+fn lidar_scan(scan: &ScanData<'_>) -> Result<LidarScan, String> {
+    let dist = scan.dist1().ok_or(
+        "no DIST1 channel (configure the scanner's output with LMDscandatacfg: first echo)",
+    )?;
+    if dist.len() > loc_core::scan::LMS511_MAX_BEAMS {
+        return Err(format!(
+            "{} beams, more than the {} a loc-core scan holds: configure the scanner for 0.1667 deg over 190 deg or coarser",
+            dist.len(),
+            loc_core::scan::LMS511_MAX_BEAMS
+        ));
+    }
+    let h = dist.header;
+    Ok(LidarScan {
+        t_s: 0.0,
+        dist1: dist.values().collect(),
+        scale_factor: h.scale_factor,
+        scale_offset_mm: h.scale_offset,
+        layout: BeamLayout::of(&scan.header, &h),
+    })
+}
+
+/// A decoded scan telegram with what times it.
+struct Decoded {
+    scan: LidarScan,
+    telegram_counter: u16,
+    capture_time_s: Option<f64>,
+    clock_us: u32,
+}
+
+/// How many rows past the expected one a telegram is looked for (rows lost to damage in a
+/// row before a telegram that survived).
+const PAIRING_WINDOW_ROWS: usize = 4096;
+
 /// Reads the scans of `path`; `sidecar` is the optional times CSV.
+///
+/// Damage loses only what is damaged: a telegram that does not frame or decode is dropped
+/// (the framer resyncs on the next one); damaged parts of a capture file are read around
+/// ([`RecordedScans::file_damage`]). With a times file that has a `telegram_counter` column
+/// (as `host-sim run --record` writes) rows and telegrams are paired by that counter, so each
+/// lost telegram is named by its row and offset ([`RecordedScans::damaged`]) and cannot shift
+/// the times of the others; without it they are paired by count, which damage makes
+/// impossible ([`ScanSourceError::SidecarCount`]).
 pub fn read_scans(path: &Path, sidecar: Option<&Path>) -> Result<RecordedScans, ScanSourceError> {
-    let rec = Recording::read_file(path).map_err(|source| ScanSourceError::Recording {
+    let unreadable = |source| ScanSourceError::Recording {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let bytes = std::fs::read(path).map_err(|e| unreadable(RecordingError::Io(e)))?;
+    let rec = Recording::parse(&bytes).map_err(unreadable)?;
+    let table = match sidecar {
+        Some(p) => Some(CsvTable::read(p).map_err(ScanSourceError::Sidecar)?),
+        None => None,
+    };
     let frames = rec.frames();
-    let mut scans = Vec::new();
-    let mut capture_times = Vec::new();
-    let mut clock_us = Vec::new();
+    let mut decoded = Vec::new();
+    let mut damaged = Vec::new();
     let mut other_frames = 0usize;
     for f in &frames.frames {
         if f.direction == Direction::HostToSensor {
             other_frames += 1;
             continue;
         }
-        let index = scans.len();
-        let scan = match ScanData::new_checked(f.frame()) {
-            Ok(s) => s,
+        let index = decoded.len() + damaged.len();
+        let result = match ScanData::new_checked(f.frame()) {
+            Ok(s) => lidar_scan(&s).map(|scan| Decoded {
+                scan,
+                telegram_counter: s.header.telegram_counter,
+                capture_time_s: f.time_s,
+                clock_us: s.header.time_since_startup_us,
+            }),
             Err(lidar_driver::ScanError::NotScanData { .. }) => {
                 other_frames += 1;
                 continue;
             }
-            Err(e) => {
-                return Err(ScanSourceError::Scan {
-                    index,
-                    reason: e.to_string(),
-                })
-            }
+            Err(e) => Err(e.to_string()),
         };
-        let dist = scan.dist1().ok_or(ScanSourceError::NoDistances { index })?;
-        let h = dist.header;
-        if dist.len() > loc_core::scan::LMS511_MAX_BEAMS {
-            return Err(ScanSourceError::TooManyBeams {
+        match result {
+            Ok(d) => decoded.push(d),
+            Err(reason) => damaged.push(DamagedScan {
                 index,
-                beams: dist.len(),
-            });
+                offset_bytes: None,
+                reason,
+            }),
         }
-        scans.push(LidarScan {
-            t_s: 0.0,
-            dist1: dist.values().collect(),
-            scale_factor: h.scale_factor,
-            scale_offset_mm: h.scale_offset,
-            layout: BeamLayout::of(&scan.header, &h),
-        });
-        capture_times.push(f.time_s);
-        clock_us.push(scan.header.time_since_startup_us);
     }
-    if scans.is_empty() {
+    if decoded.is_empty() {
         return Err(ScanSourceError::NoScans {
             path: path.to_path_buf(),
         });
     }
-    let time_source = if let Some(p) = sidecar {
-        let t = CsvTable::read(p).map_err(ScanSourceError::Sidecar)?;
-        let c = t.column("t_s").map_err(ScanSourceError::Sidecar)?;
-        if t.rows().len() != scans.len() {
-            return Err(ScanSourceError::SidecarCount {
-                rows: t.rows().len(),
-                scans: scans.len(),
-            });
+    let time_source = match &table {
+        Some(t) if t.optional_column("telegram_counter").is_some() => {
+            // Rows name the lost telegrams: the count-based list is replaced.
+            damaged = pair_by_counter(&mut decoded, t)?;
+            TimeSource::Sidecar
         }
-        for (s, r) in scans.iter_mut().zip(t.rows()) {
-            s.t_s = cell(r, c);
-        }
-        TimeSource::Sidecar
-    } else if capture_times.iter().all(Option::is_some) {
-        for (s, t) in scans.iter_mut().zip(&capture_times) {
-            s.t_s = t.unwrap_or(0.0);
-        }
-        TimeSource::Capture
-    } else {
-        // Unwrap the u32 µs counter.
-        let mut wraps = 0u64;
-        let mut prev = None;
-        for (s, &us) in scans.iter_mut().zip(&clock_us) {
-            if prev.is_some_and(|p| us < p) {
-                wraps += 1;
+        Some(t) => {
+            let c = t.column("t_s").map_err(ScanSourceError::Sidecar)?;
+            if t.rows().len() != decoded.len() {
+                return Err(ScanSourceError::SidecarCount {
+                    rows: t.rows().len(),
+                    scans: decoded.len(),
+                });
             }
-            prev = Some(us);
-            s.t_s = (wraps * (1u64 << 32) + u64::from(us)) as f64 / 1e6;
+            for (d, r) in decoded.iter_mut().zip(t.rows()) {
+                d.scan.t_s = cell(r, c);
+            }
+            TimeSource::Sidecar
         }
-        TimeSource::ScannerClock
+        None if decoded.iter().all(|d| d.capture_time_s.is_some()) => {
+            for d in &mut decoded {
+                d.scan.t_s = d.capture_time_s.unwrap_or(0.0);
+            }
+            TimeSource::Capture
+        }
+        None => {
+            // Unwrap the u32 µs counter.
+            let mut wraps = 0u64;
+            let mut prev = None;
+            for d in &mut decoded {
+                if prev.is_some_and(|p| d.clock_us < p) {
+                    wraps += 1;
+                }
+                prev = Some(d.clock_us);
+                d.scan.t_s = (wraps * (1u64 << 32) + u64::from(d.clock_us)) as f64 / 1e6;
+            }
+            TimeSource::ScannerClock
+        }
     };
     Ok(RecordedScans {
-        scans,
+        scans: decoded.into_iter().map(|d| d.scan).collect(),
         format: rec.format,
         time_source,
         other_frames,
         bad_frames: frames.errors.len(),
+        damaged,
+        file_damage: rec.damage.clone(),
     })
+}
+
+/// Times the decoded telegrams from the rows with their telegram counter (u16, wrapping:
+/// matched in stream order) and returns the rows no telegram answered, with their offsets.
+/// A telegram with no row is dropped and listed too.
+fn pair_by_counter(
+    decoded: &mut Vec<Decoded>,
+    t: &CsvTable,
+) -> Result<Vec<DamagedScan>, ScanSourceError> {
+    let col = |name| t.column(name).map_err(ScanSourceError::Sidecar);
+    let (c_t, c_counter) = (col("t_s")?, col("telegram_counter")?);
+    let c_offset = t.optional_column("offset_bytes");
+    let rows = t.rows();
+    let lost = |index: usize, reason: &str| DamagedScan {
+        index,
+        offset_bytes: c_offset
+            .and_then(|c| rows.get(index).map(|r| cell(r, c)))
+            .filter(|o| *o >= 0.0)
+            .map(|o| o as u64),
+        reason: reason.to_string(),
+    };
+    let mut damaged = Vec::new();
+    let mut next_row = 0usize;
+    let mut kept = Vec::with_capacity(decoded.len());
+    for (k, mut d) in decoded.drain(..).enumerate() {
+        let found = rows
+            .iter()
+            .enumerate()
+            .skip(next_row)
+            .take(PAIRING_WINDOW_ROWS)
+            .find(|(_, r)| cell(r, c_counter) == f64::from(d.telegram_counter));
+        match found {
+            Some((row, r)) => {
+                for missing in next_row..row {
+                    damaged.push(lost(
+                        missing,
+                        "its telegram is not in the stream (damaged, cut or lost)",
+                    ));
+                }
+                d.scan.t_s = cell(r, c_t);
+                kept.push(d);
+                next_row = row + 1;
+            }
+            None => damaged.push(DamagedScan {
+                index: k,
+                offset_bytes: None,
+                reason: format!(
+                    "telegram counter {} is in no row of the times file after row {next_row}",
+                    d.telegram_counter
+                ),
+            }),
+        }
+    }
+    for missing in next_row..rows.len() {
+        damaged.push(lost(
+            missing,
+            "its telegram is not in the stream (damaged, cut or lost)",
+        ));
+    }
+    if kept.is_empty() {
+        return Err(ScanSourceError::SidecarUnpaired {
+            rows: rows.len(),
+            scans: damaged.len().saturating_sub(rows.len()),
+        });
+    }
+    *decoded = kept;
+    Ok(damaged)
 }
 
 #[cfg(test)]

@@ -109,6 +109,29 @@ pub struct Recording {
     pub chunks: Vec<Chunk>,
     /// TCP reassembly counters (pcap / pcapng only).
     pub tcp: Option<TcpStats>,
+    /// Damaged parts of the file that were skipped (the rest was read).
+    pub damage: Vec<RecordingDamage>,
+}
+
+/// A damaged part of a recording file, skipped: the frames before and after it are kept.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordingDamage {
+    /// Byte offset of the damage in the file.
+    pub offset: usize,
+    /// What is wrong there.
+    pub what: &'static str,
+    /// Bytes skipped until reading could resume (to the end of the file for a cut).
+    pub skipped_bytes: usize,
+}
+
+impl fmt::Display for RecordingDamage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "damaged at byte {}: {}; {} bytes skipped",
+            self.offset, self.what, self.skipped_bytes
+        )
+    }
 }
 
 /// One frame of a recording.
@@ -153,7 +176,8 @@ pub struct CapturedPacket {
     pub data: Vec<u8>,
 }
 
-/// The packets of a pcap or pcapng file, in file order (no TCP processing).
+/// The packets of a pcap or pcapng file, in file order (no TCP processing); a damaged file
+/// is an error (`Recording::parse` reads around the damage instead).
 pub fn capture_packets(bytes: &[u8]) -> Result<Vec<CapturedPacket>, RecordingError> {
     let mut out = Vec::new();
     let mut each = |p: &tcp::Packet<'_>| {
@@ -163,9 +187,10 @@ pub fn capture_packets(bytes: &[u8]) -> Result<Vec<CapturedPacket>, RecordingErr
             data: p.data.to_vec(),
         })
     };
+    let mut damage = Vec::new();
     match RecordingFormat::detect(bytes) {
-        RecordingFormat::Pcap => pcap::packets(bytes, &mut each)?,
-        RecordingFormat::Pcapng => pcapng::packets(bytes, &mut each)?,
+        RecordingFormat::Pcap => pcap::packets(bytes, &mut each, &mut damage)?,
+        RecordingFormat::Pcapng => pcapng::packets(bytes, &mut each, &mut damage)?,
         _ => {
             return Err(RecordingError::Capture {
                 offset: 0,
@@ -173,7 +198,14 @@ pub fn capture_packets(bytes: &[u8]) -> Result<Vec<CapturedPacket>, RecordingErr
             })
         }
     }
-    Ok(out)
+    // This one gives the packets exactly or not at all: damage is an error here.
+    match damage.first() {
+        Some(d) => Err(RecordingError::Capture {
+            offset: d.offset,
+            what: d.what,
+        }),
+        None => Ok(out),
+    }
 }
 
 /// Writes packets as a classic pcap file (µs timestamps, little-endian), e.g. to record a
@@ -216,6 +248,7 @@ impl Recording {
     /// Parses recording bytes of any supported format.
     pub fn parse(bytes: &[u8]) -> Result<Self, RecordingError> {
         let format = RecordingFormat::detect(bytes);
+        let mut damage = Vec::new();
         let (chunks, tcp) = match format {
             RecordingFormat::Raw => (
                 vec![Chunk {
@@ -225,13 +258,13 @@ impl Recording {
                 }],
                 None,
             ),
-            RecordingFormat::SickJson => (sick_json::chunks(bytes)?, None),
+            RecordingFormat::SickJson => (sick_json::chunks(bytes, &mut damage)?, None),
             RecordingFormat::Pcap | RecordingFormat::Pcapng => {
                 let mut r = tcp::Reassembler::default();
                 if format == RecordingFormat::Pcap {
-                    pcap::packets(bytes, |p| r.push(p))?;
+                    pcap::packets(bytes, |p| r.push(p), &mut damage)?;
                 } else {
-                    pcapng::packets(bytes, |p| r.push(p))?;
+                    pcapng::packets(bytes, |p| r.push(p), &mut damage)?;
                 }
                 let (c, s) = r.finish();
                 (c, Some(s))
@@ -241,6 +274,7 @@ impl Recording {
             format,
             chunks,
             tcp,
+            damage,
         })
     }
 

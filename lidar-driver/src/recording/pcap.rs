@@ -16,8 +16,13 @@ pub fn is_pcap(b: &[u8]) -> bool {
     )
 }
 
-/// Calls `each` for every packet record.
-pub(crate) fn packets(b: &[u8], mut each: impl FnMut(&Packet<'_>)) -> Result<(), RecordingError> {
+/// Calls `each` for every packet record. A file cut inside a record ends at the last
+/// complete one, recorded in `damage` (pcap records carry no marker to resynchronise on).
+pub(crate) fn packets(
+    b: &[u8],
+    mut each: impl FnMut(&Packet<'_>),
+    damage: &mut Vec<super::RecordingDamage>,
+) -> Result<(), RecordingError> {
     let bad = |offset, what| RecordingError::Capture { offset, what };
     let magic = b.get(..4).ok_or(bad(0, "pcap header truncated"))?;
     let le = matches!(magic, [0xd4, 0xc3, 0xb2, 0xa1] | [0x4d, 0x3c, 0xb2, 0xa1]);
@@ -33,13 +38,20 @@ pub(crate) fn packets(b: &[u8], mut each: impl FnMut(&Packet<'_>)) -> Result<(),
     let linktype = u32_at(20).ok_or(bad(20, "pcap header truncated"))? & 0x0fff_ffff;
     let mut at = 24;
     while at < b.len() {
+        let cut = |what| super::RecordingDamage {
+            offset: at,
+            what,
+            skipped_bytes: b.len() - at,
+        };
         let (Some(sec), Some(frac), Some(incl)) = (u32_at(at), u32_at(at + 4), u32_at(at + 8))
         else {
-            return Err(bad(at, "pcap record header truncated"));
+            damage.push(cut("pcap record header truncated"));
+            break;
         };
-        let data = b
-            .get(at + 16..at + 16 + incl as usize)
-            .ok_or(bad(at, "pcap record data truncated"))?;
+        let Some(data) = b.get(at + 16..at + 16 + incl as usize) else {
+            damage.push(cut("pcap record data truncated"));
+            break;
+        };
         let time_s = sec as f64 + frac as f64 * if nanos { 1e-9 } else { 1e-6 };
         each(&Packet {
             time_s: Some(time_s),

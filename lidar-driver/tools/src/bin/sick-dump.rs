@@ -52,6 +52,10 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // A damaged file is read around its damage: say where, and dump the rest.
+    for d in &rec.damage {
+        eprintln!("sick-dump: {}: {d}", cli.file.display());
+    }
     let frames = rec.frames();
     let stdout = io::stdout();
     let mut out = BufWriter::new(stdout.lock());
@@ -225,6 +229,9 @@ fn stats_text(rec: &Recording, frames: &RecordedFrames, c: &Counts) -> String {
     let s = &frames.stats;
     let mut t = String::new();
     t.push_str(&format!("format: {:?}\n", rec.format));
+    for d in &rec.damage {
+        t.push_str(&format!("file {d}\n"));
+    }
     t.push_str(&format!(
         "bytes: {}  garbage bytes: {}\n",
         s.bytes_in, s.garbage_bytes
