@@ -166,6 +166,8 @@ pub struct EmulatorConfig {
     pub restamp: bool,
     /// Fault injection.
     pub faults: Faults,
+    /// Resource bounds: connections, idle and half-sent-telegram time-outs.
+    pub limits: Limits,
 }
 
 impl Default for EmulatorConfig {
@@ -178,6 +180,42 @@ impl Default for EmulatorConfig {
             identity: DeviceIdentity::default(),
             restamp: true,
             faults: Faults::default(),
+            limits: Limits::default(),
+        }
+    }
+}
+
+/// What the emulator spends on its clients at most, so that a client which opens many
+/// connections, goes quiet, or sends half a telegram cannot exhaust it or stall the next
+/// requests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// TCP connections served at once; one more is closed as soon as it is accepted
+    /// ([`EmulatorStats::refused_connections`](crate::EmulatorStats::refused_connections)).
+    /// Default 8: a host, SOPAS ET and a few diagnostic clients, more than any test opens;
+    /// the LMS511 itself takes only a few host connections (SICK's documents at hand give no
+    /// exact number).
+    pub max_connections: usize,
+    /// A connection that sends nothing for this long and is not streaming scans is closed
+    /// ([`EmulatorStats::idle_closed`](crate::EmulatorStats::idle_closed)). Default 60 s:
+    /// far longer than a driver's gap between requests (its answer time-out is seconds), short
+    /// enough that forgotten connections go. Not applied to [`Emulator::start_on_stream`](crate::Emulator::start_on_stream)
+    /// (a serial line has no connection to close).
+    pub idle_timeout: Duration,
+    /// A telegram begun (CoLa-B header with its length, or a CoLa-A STX) and not completed
+    /// within this time is dropped, and the bytes after its start are read again as new
+    /// telegrams ([`EmulatorStats::partial_frames_dropped`](crate::EmulatorStats::partial_frames_dropped)),
+    /// so a length longer than what follows does not swallow the next requests. Default 2 s:
+    /// a request is tens of bytes and arrives within milliseconds, even at 9600 Bd.
+    pub partial_frame_timeout: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_connections: 8,
+            idle_timeout: Duration::from_secs(60),
+            partial_frame_timeout: Duration::from_secs(2),
         }
     }
 }

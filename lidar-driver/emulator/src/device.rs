@@ -402,6 +402,34 @@ impl<'s> Connection<'s> {
         }
     }
 
+    /// Whether scans are streamed to this connection (subscribed, not in configuration
+    /// mode, not a silent device): such a connection is never idle.
+    pub(crate) fn streaming(&self) -> bool {
+        self.subscribed && !self.config_mode && !self.shared.config.faults.silent
+    }
+
+    /// When [`Connection::tick`] has something to send next (a scan, a recorded event), if
+    /// anything: the connection loop sleeps until then.
+    pub(crate) fn next_due(&self, now: Instant) -> Option<Instant> {
+        self.dialect?;
+        let shared = self.shared;
+        let mut due: Option<Instant> = None;
+        let mut at = |t: Instant| due = Some(due.map_or(t, |d| d.min(t)));
+        if !shared.config.faults.silent {
+            for sub in &self.events {
+                let recorded = &shared.config.identity.recorded;
+                if let Some(e) = recorded.events(&sub.name).nth(sub.sent) {
+                    at(sub.since + e.after);
+                }
+            }
+        }
+        if self.streaming() {
+            let boot_end = shared.started + shared.config.startup_delay;
+            at(self.next_scan.unwrap_or(now).max(boot_end));
+        }
+        due
+    }
+
     /// Scans due by `now` (at most one per call; a late loop skips periods instead of
     /// bursting), with fault injection, and the recorded events due. Returns whether to drop
     /// the connection.

@@ -5,8 +5,16 @@ use std::sync::Mutex;
 /// What the emulator did since it started.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct EmulatorStats {
-    /// Connections accepted (or streams served).
+    /// Connections accepted (or streams served); refused ones not included.
     pub connections: u32,
+    /// Connections closed at once because [`Limits::max_connections`](crate::Limits::max_connections)
+    /// were open (or no thread could be started for them).
+    pub refused_connections: u32,
+    /// Connections closed after [`Limits::idle_timeout`](crate::Limits::idle_timeout) without
+    /// a byte from the client while not streaming.
+    pub idle_closed: u32,
+    /// Half-sent telegrams dropped after [`Limits::partial_frame_timeout`](crate::Limits::partial_frame_timeout).
+    pub partial_frames_dropped: u64,
     /// Good frames received.
     pub frames_in: u64,
     /// Frames ignored because they were in the dialect the connection does not speak.

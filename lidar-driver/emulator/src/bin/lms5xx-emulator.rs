@@ -8,6 +8,7 @@
 //! lms5xx-emulator --recording REC --port 0 --rate-hz 50 --startup-delay-ms 30000
 //! lms5xx-emulator --recording REC --serial /dev/pts/5 --baud 115200
 //! lms5xx-emulator --recording REC --drop-after-scans 100 --corrupt-every 7 --duration-s 60
+//! lms5xx-emulator --recording REC --max-connections 2 --idle-timeout-s 10 --partial-frame-timeout-ms 500
 //! ```
 //!
 //! Prints its address, then the counters once a second until `--duration-s` ends or Ctrl-C.
@@ -20,7 +21,7 @@ use clap::{Parser, ValueEnum};
 use lidar_driver::recording::Recording;
 use lidar_driver::Dialect;
 use lms5xx_emulator::{
-    DeviceIdentity, DialectMode, Emulator, EmulatorConfig, Faults, RecordingSource,
+    DeviceIdentity, DialectMode, Emulator, EmulatorConfig, Faults, Limits, RecordingSource,
 };
 
 /// Dialect choice on the command line.
@@ -72,6 +73,17 @@ struct Cli {
     /// Damage every n-th scan frame.
     #[arg(long)]
     corrupt_every: Option<u64>,
+    /// TCP connections served at once; one more is closed as soon as it is accepted.
+    #[arg(long, default_value_t = Limits::default().max_connections)]
+    max_connections: usize,
+    /// Close a connection that sends nothing for this long while not streaming scans, s
+    /// (TCP only).
+    #[arg(long, default_value_t = Limits::default().idle_timeout.as_secs())]
+    idle_timeout_s: u64,
+    /// Drop a telegram still incomplete this long after it began (a length longer than what
+    /// follows), so the next requests are answered, ms.
+    #[arg(long, default_value_t = Limits::default().partial_frame_timeout.as_millis() as u64)]
+    partial_frame_timeout_ms: u64,
     /// Stop after this many seconds (default: run until interrupted).
     #[arg(long)]
     duration_s: Option<u64>,
@@ -81,6 +93,13 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     if !(cli.rate_hz.is_finite() && cli.rate_hz > 0.0 && cli.rate_hz <= 1000.0) {
         eprintln!("lms5xx-emulator: --rate-hz must be in (0, 1000]");
+        return ExitCode::FAILURE;
+    }
+    if cli.max_connections == 0 || cli.idle_timeout_s == 0 || cli.partial_frame_timeout_ms == 0 {
+        eprintln!(
+            "lms5xx-emulator: --max-connections, --idle-timeout-s and --partial-frame-timeout-ms \
+             must be at least 1"
+        );
         return ExitCode::FAILURE;
     }
     let rec = match Recording::read_file(&cli.recording) {
@@ -119,6 +138,11 @@ fn main() -> ExitCode {
         },
         identity,
         restamp: true,
+        limits: Limits {
+            max_connections: cli.max_connections,
+            idle_timeout: Duration::from_secs(cli.idle_timeout_s),
+            partial_frame_timeout: Duration::from_millis(cli.partial_frame_timeout_ms),
+        },
     };
     let started = match &cli.serial {
         Some(path) => serialport::new(path, cli.baud)
@@ -147,14 +171,18 @@ fn main() -> ExitCode {
         std::thread::sleep(Duration::from_secs(1));
         let s = emu.stats();
         println!(
-            "connections {} requests {} sFA {} scans {} drops {} corrupted {} garbage {}",
+            "connections {} refused {} idle-closed {} requests {} sFA {} scans {} drops {} \
+             corrupted {} garbage {} partial-dropped {}",
             s.connections,
+            s.refused_connections,
+            s.idle_closed,
             s.requests,
             s.errors_sent,
             s.scans_sent,
             s.drops,
             s.corrupted_scans,
-            s.garbage_injections
+            s.garbage_injections,
+            s.partial_frames_dropped
         );
     }
     let s = emu.stop();
