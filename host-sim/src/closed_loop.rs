@@ -204,6 +204,18 @@ impl RunLog {
         }
     }
 
+    /// The worst error in σ over the scans reported tracking ([`metrics::worst_sigmas`]):
+    /// above 5 the localiser claimed a pose it did not have.
+    pub fn worst_tracking_sigmas(&self) -> Option<metrics::WorstSigmas> {
+        metrics::worst_sigmas(
+            self.samples
+                .iter()
+                .zip(&self.statuses)
+                .filter(|(_, st)| st.is_tracking())
+                .map(|(s, _)| s),
+        )
+    }
+
     /// Number of scans whose status satisfies `which` (e.g. [`EstimatorStatus::is_tracking`]).
     pub fn status_count(&self, which: impl Fn(&EstimatorStatus) -> bool) -> usize {
         self.statuses.iter().filter(|s| which(s)).count()

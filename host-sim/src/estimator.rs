@@ -6,7 +6,7 @@
 //! The localiser is configured for the simulated sensor: the mounting pose and range limits
 //! (the beam layout comes with each scan, as in its telegram), the range noise σ, the
 //! scenario's odometry noise, and the chosen matcher. Everything else is loc-core's default
-//! tuning.
+//! tuning. Time the odometry log leaves uncovered is coasted across ([`crate::odometry_gaps`]).
 
 use loc_core::filter::{OdometryIncrement, OdometryNoise};
 use loc_core::geometry::Pose2;
@@ -18,6 +18,7 @@ use nalgebra::Matrix3;
 
 use crate::closed_loop::{Estimator, EstimatorOutput};
 use crate::lidar::{LidarScan, LidarSpec};
+use crate::odometry_gaps::{Gap, GapTracker};
 use crate::scenario::{MatcherChoice, Scenario};
 use crate::status::EstimatorStatus;
 use crate::vehicle::odometry::OdometrySample;
@@ -74,6 +75,7 @@ pub struct LocCoreEstimator<'m> {
     scan: Box<Scan>,
     matcher: MatcherChoice,
     last_reset: SimPose,
+    gaps: GapTracker,
 }
 
 impl<'m> LocCoreEstimator<'m> {
@@ -84,6 +86,16 @@ impl<'m> LocCoreEstimator<'m> {
             scan: Box::new(Scan::new()),
             matcher: scenario.localizer.matcher,
             last_reset: SimPose::default(),
+            gaps: GapTracker::default(),
+        }
+    }
+
+    /// Coasts across a gap in the odometry (a rejected coast leaves the state unchanged).
+    fn coast(&mut self, gap: Option<Gap>) {
+        if let Some(g) = gap {
+            let _ =
+                self.localizer
+                    .coast(g.unobserved_s as f32, g.v_mps as f32, g.omega_radps as f32);
         }
     }
 
@@ -100,6 +112,7 @@ impl Estimator for LocCoreEstimator<'_> {
 
     fn reset(&mut self, pose: SimPose, sigma_m: f64, sigma_rad: f64) {
         self.last_reset = pose;
+        self.gaps.reset();
         let (v, w) = ((sigma_m * sigma_m) as f32, (sigma_rad * sigma_rad) as f32);
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(v, v, w));
         let p = Pose2::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32);
@@ -108,16 +121,20 @@ impl Estimator for LocCoreEstimator<'_> {
     }
 
     fn odometry(&mut self, s: &OdometrySample) {
+        let (gap, fraction) = self.gaps.reading(s);
+        self.coast(gap);
         let inc = OdometryIncrement {
-            dx_m: s.delta.0 as f32,
-            dy_m: s.delta.1 as f32,
-            dtheta_rad: s.delta.2 as f32,
+            dx_m: (s.delta.0 * fraction) as f32,
+            dy_m: (s.delta.1 * fraction) as f32,
+            dtheta_rad: (s.delta.2 * fraction) as f32,
         };
         // A rejected increment leaves the state unchanged, as on the vehicle.
         let _ = self.localizer.predict_odometry(&inc);
     }
 
     fn scan(&mut self, scan: &LidarScan) -> EstimatorOutput {
+        let gap = self.gaps.scan(scan.t_s);
+        self.coast(gap);
         let loaded = scan_input::load_values(
             &scan.layout,
             scan.dist1.iter().copied(),

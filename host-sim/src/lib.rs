@@ -21,6 +21,7 @@ pub mod lidar;
 pub mod map_export;
 pub mod mcap_out;
 pub mod metrics;
+pub mod odometry_gaps;
 pub mod output;
 pub mod plot;
 pub mod raycast;

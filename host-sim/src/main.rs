@@ -388,14 +388,16 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
     let m = rep.log.metrics();
     if a.json {
         if has_truth {
-            out(&MetricsJson::new(&rep.log, &m).to_json())?;
+            out(&MetricsJson::new(&rep.log, &m)
+                .with_warnings(&rep.warnings)
+                .to_json())?;
         } else {
             return Err("no ground truth to score against: --json needs ground_truth.csv".into());
         }
     } else {
         let sc = &rep.source;
         out(&format!(
-            "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged frames, {} damaged scan telegrams dropped, {} damaged file parts read around) with {} odometry readings",
+            "replayed {} scans ({:?} file, times from {:?}; {} other frames, {} damaged frames, {} damaged scan telegrams dropped, {} damaged file parts read around) with {} odometry readings ({} flagged, {} left out)",
             sc.scans,
             sc.format,
             sc.time_source,
@@ -403,7 +405,9 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
             sc.bad_frames,
             sc.damaged_scans,
             sc.file_damage,
-            sc.odometry_readings
+            sc.odometry_readings,
+            sc.odometry_findings,
+            sc.odometry_left_out
         ))?;
         if has_truth {
             out(&format!(

@@ -42,6 +42,50 @@ pub struct Sample {
     pub update_us: f64,
 }
 
+/// How far the estimate was from the truth in its own standard deviations, per axis
+/// (`|error| / σ` in x, y and heading), at the worst sample: a localiser that claims
+/// millimetres must be within a few σ of the truth. Above 5 a pose is confidently wrong.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct WorstSigmas {
+    /// The largest `|error| / σ` of the three axes, at the worst sample.
+    pub error_sigmas: f64,
+    /// That sample's time, s.
+    pub t_s: f64,
+}
+
+/// The worst [`WorstSigmas`] over the samples `counted` selects (e.g. those reported
+/// tracking); `None` when none is. A zero σ with a non-zero error counts as infinitely
+/// many σ, a non-finite estimate as NaN (both worse than any finite figure).
+pub fn worst_sigmas<'a>(samples: impl IntoIterator<Item = &'a Sample>) -> Option<WorstSigmas> {
+    let mut worst: Option<WorstSigmas> = None;
+    for s in samples {
+        let e = s.estimate;
+        let dth = (e.theta_rad - s.truth.theta_rad + std::f64::consts::PI)
+            .rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        let ratios = [
+            ((e.x_m - s.truth.x_m).abs(), s.sigma.0),
+            ((e.y_m - s.truth.y_m).abs(), s.sigma.1),
+            (dth.abs(), s.sigma.2),
+        ];
+        let r = ratios.iter().fold(0.0, |r, &(err, sd)| {
+            // An exact estimate is 0 σ off even at σ = 0.
+            max_or_nan(r, if err == 0.0 { 0.0 } else { err / sd })
+        });
+        let worse = match worst {
+            None => true,
+            Some(w) => r.is_nan() && !w.error_sigmas.is_nan() || r > w.error_sigmas,
+        };
+        if worse {
+            worst = Some(WorstSigmas {
+                error_sigmas: r,
+                t_s: s.t_s,
+            });
+        }
+    }
+    worst
+}
+
 /// The larger of `a` and `b`, NaN when either is: a maximum over errors one of which cannot
 /// be computed is not a number (JSON `null`), never the maximum of the others — `f64::max`
 /// would drop the NaN and report a clean 0.
@@ -319,6 +363,42 @@ mod tests {
         assert!(a.position_rms_m.is_nan() && a.max_along_error_m.is_nan());
         let json = serde_json::to_value(a).unwrap();
         assert!(json["max_position_error_m"].is_null(), "{json}");
+    }
+
+    #[test]
+    fn worst_sigmas_finds_the_confidently_wrong_sample() {
+        let at = |t: f64, ex: f64, sigma: (f64, f64, f64)| Sample {
+            t_s: t,
+            distance_m: t,
+            chainage_m: t,
+            truth: pose(t, 0.0, 3.1),
+            estimate: pose(t + ex, 0.0, -3.1),
+            odometry: pose(t, 0.0, 0.0),
+            sigma,
+            update_us: 1.0,
+        };
+        // Heading 3.1 vs -3.1 is 0.083 rad apart across ±π: 0.83 σ at σθ = 0.1.
+        let ok = at(0.0, 0.01, (0.005, 0.005, 0.1));
+        let wrong = at(1.0, 0.07, (0.005, 0.005, 0.1));
+        let w = worst_sigmas([&ok, &wrong]).unwrap();
+        assert!(
+            (w.error_sigmas - 14.0).abs() < 1e-6 && w.t_s == 1.0,
+            "{w:?}"
+        );
+        let w = worst_sigmas([&ok]).unwrap();
+        assert!((w.error_sigmas - 2.0).abs() < 1e-6, "{w:?}");
+        // σ = 0 with an error is infinitely confident; a NaN estimate is worse still.
+        let zero = at(2.0, 0.001, (0.0, 0.0, 0.1));
+        assert_eq!(
+            worst_sigmas([&ok, &zero]).unwrap().error_sigmas,
+            f64::INFINITY
+        );
+        let nan = at(3.0, f64::NAN, (0.005, 0.005, 0.1));
+        assert!(worst_sigmas([&zero, &nan, &ok])
+            .unwrap()
+            .error_sigmas
+            .is_nan());
+        assert_eq!(worst_sigmas(std::iter::empty()), None);
     }
 
     #[test]

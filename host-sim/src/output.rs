@@ -81,6 +81,12 @@ pub struct MetricsJson {
     pub world: WorldSummary,
     /// Count of scans per estimator status.
     pub status_counts: std::collections::BTreeMap<String, usize>,
+    /// The worst error in σ on a scan reported tracking (`null` when none was): above 5
+    /// the localiser was confidently wrong.
+    pub tracking_worst_error_sigmas: Option<f64>,
+    /// What looked wrong in the inputs but did not stop the run (a replay's damaged scans,
+    /// odometry gaps, …); empty when nothing did.
+    pub warnings: Vec<String>,
 }
 
 impl MetricsJson {
@@ -107,7 +113,15 @@ impl MetricsJson {
             scan_cpu_real_time_factor: log.scan_cpu_real_time_factor(),
             world: log.world,
             status_counts,
+            tracking_worst_error_sigmas: log.worst_tracking_sigmas().map(|w| w.error_sigmas),
+            warnings: Vec::new(),
         }
+    }
+
+    /// Adds the warnings of the run or replay.
+    pub fn with_warnings(mut self, warnings: &[String]) -> Self {
+        self.warnings = warnings.to_vec();
+        self
     }
 
     /// Adds the run's CPU time (from [`crate::session::run_scenario_timed`]).

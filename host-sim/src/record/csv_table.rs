@@ -172,6 +172,16 @@ impl CsvTable {
         &self.rows
     }
 
+    /// The file's line number (1-based) of row `row` (0-based); 0 past the last row.
+    pub fn line(&self, row: usize) -> usize {
+        self.lines.get(row).copied().unwrap_or(0)
+    }
+
+    /// The file the table came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// The value of column `name` in row `row` (0-based), which must be there: a missing
     /// column or an empty cell is an error naming the file and the line.
     pub fn value(&self, row: usize, name: &'static str) -> Result<f64, CsvError> {
@@ -182,7 +192,7 @@ impl CsvTable {
         } else {
             Err(CsvError::MissingValue {
                 path: self.path.clone(),
-                line: self.lines.get(row).copied().unwrap_or(0),
+                line: self.line(row),
                 column: name,
             })
         }

@@ -14,7 +14,7 @@
 //! exactly the `f64` the run had.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use super::csv_table::{cell, CsvError, CsvTable};
 use crate::vehicle::odometry::OdometrySample;
@@ -42,8 +42,22 @@ pub fn increment(v_mps: f64, omega_radps: f64, dt_s: f64) -> (f64, f64, f64) {
     (p.x_m, p.y_m, p.theta_rad)
 }
 
-/// Reads an odometry CSV (columns by name; see the module docs). Rows must be in time order.
-pub fn read(path: &Path) -> Result<Vec<OdometrySample>, CsvError> {
+/// An odometry CSV as read: the readings and where each came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OdometryLog {
+    /// The file.
+    pub path: PathBuf,
+    /// The readings in file order.
+    pub readings: Vec<OdometrySample>,
+    /// The file's line number (1-based) of each reading.
+    pub lines: Vec<usize>,
+    /// Whether the file gave the increment columns (else they came from the speeds).
+    pub increments_given: bool,
+}
+
+/// Reads an odometry CSV (columns by name; see the module docs); what the values mean
+/// together (time order, units, gaps) is `replay::odometry_check`'s job.
+pub fn read(path: &Path) -> Result<OdometryLog, CsvError> {
     let t = CsvTable::read(path)?;
     let (ct, cdt, cv, cw) = (
         t.column("t_s")?,
@@ -59,7 +73,8 @@ pub fn read(path: &Path) -> Result<Vec<OdometrySample>, CsvError> {
         (Some(a), Some(b), Some(c)) => Some((a, b, c)),
         _ => None,
     };
-    Ok(t.rows()
+    let readings = t
+        .rows()
         .iter()
         .map(|r| {
             let (t_s, dt_s, v, w) = (cell(r, ct), cell(r, cdt), cell(r, cv), cell(r, cw));
@@ -75,7 +90,13 @@ pub fn read(path: &Path) -> Result<Vec<OdometrySample>, CsvError> {
                 delta,
             }
         })
-        .collect())
+        .collect();
+    Ok(OdometryLog {
+        path: t.path().to_path_buf(),
+        readings,
+        lines: (0..t.rows().len()).map(|k| t.line(k)).collect(),
+        increments_given: inc.is_some(),
+    })
 }
 
 #[cfg(test)]
@@ -105,10 +126,17 @@ mod tests {
         let mut buf = Vec::new();
         write(&mut buf, &rows).unwrap();
         std::fs::write(&p, &buf).unwrap();
-        assert_eq!(read(&p).unwrap(), rows);
+        let log = read(&p).unwrap();
+        assert_eq!(log.readings, rows);
+        assert_eq!(
+            (log.lines.as_slice(), log.increments_given),
+            ([2, 3].as_slice(), true)
+        );
         // Speeds only: the increment comes from arc integration.
         std::fs::write(&p, "t_s,dt_s,v_mps,omega_radps\n0.02,0.01,2,0.5\n").unwrap();
         let back = read(&p).unwrap();
+        assert!(!back.increments_given);
+        let back = back.readings;
         assert_eq!(back[0].delta, rows[1].delta);
         let (dx, dy, dth) = back[0].delta;
         assert!((dx - 0.02).abs() < 1e-6 && dy > 0.0 && (dth - 0.005).abs() < 1e-15);

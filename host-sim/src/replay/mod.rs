@@ -9,6 +9,7 @@
 //! run's `f64` values exactly, and the odometry-alone baseline is integrated from the same
 //! readings by the same arc integration as the simulator's odometry.
 
+pub mod odometry_check;
 pub mod scan_source;
 pub mod truth;
 
@@ -29,6 +30,7 @@ use crate::session::EstimatorChoice;
 use crate::status::EstimatorStatus;
 use crate::vehicle::SimPose;
 
+use odometry_check::OdometryError;
 use scan_source::{RecordedScans, ScanSourceError};
 
 /// The files a replay reads.
@@ -113,6 +115,8 @@ pub enum ReplayError {
     Scans(ScanSourceError),
     /// A CSV file is unusable.
     Csv(CsvError),
+    /// The odometry log cannot be right.
+    Odometry(OdometryError),
     /// The scenario is wrong.
     Scenario(ScenarioError),
     /// The map file is not a loc-core map.
@@ -124,6 +128,13 @@ pub enum ReplayError {
     },
     /// Neither an initial pose nor ground truth to start from.
     NoInitialPose,
+    /// The odometry and the scans do not overlap in time.
+    ClocksDisagree {
+        /// First and last odometry time, s.
+        odometry_s: (f64, f64),
+        /// First and last scan time, s.
+        scans_s: (f64, f64),
+    },
 }
 
 impl fmt::Display for ReplayError {
@@ -144,6 +155,14 @@ impl fmt::Display for ReplayError {
             }
             ReplayError::Scans(e) => write!(f, "{e}"),
             ReplayError::Csv(e) => write!(f, "{e}"),
+            ReplayError::Odometry(e) => write!(f, "{e}"),
+            ReplayError::ClocksDisagree {
+                odometry_s: (o0, o1),
+                scans_s: (s0, s1),
+            } => write!(
+                f,
+                "the odometry (t = {o0:.3}…{o1:.3} s) and the scans (t = {s0:.3}…{s1:.3} s) do not overlap: they are on different clocks; give the scans' receive times (--scanner-times) or put the odometry on the scans' clock"
+            ),
             ReplayError::Scenario(e) => write!(f, "{e}"),
             ReplayError::Map { path, source } => write!(
                 f,
@@ -169,6 +188,12 @@ impl From<ScanSourceError> for ReplayError {
 impl From<CsvError> for ReplayError {
     fn from(e: CsvError) -> Self {
         ReplayError::Csv(e)
+    }
+}
+
+impl From<OdometryError> for ReplayError {
+    fn from(e: OdometryError) -> Self {
+        ReplayError::Odometry(e)
     }
 }
 
@@ -212,19 +237,26 @@ pub struct Replay {
     pub warnings: Vec<String>,
 }
 
-/// Warns when the odometry and the scans do not overlap in time: they are then on different
-/// clocks (e.g. a raw stream timed by the scanner's clock since power-up).
-fn clock_warning(
+/// Refuses odometry and scans that do not overlap in time: they are then on different
+/// clocks (e.g. a raw stream timed by the scanner's clock since power-up), and the scans
+/// would be localised without the motion between them.
+fn check_clocks(
     odometry: &[crate::vehicle::odometry::OdometrySample],
     scans: &[crate::lidar::LidarScan],
-) -> Option<String> {
-    let (o0, o1) = (odometry.first()?.t_s, odometry.last()?.t_s);
-    let (s0, s1) = (scans.first()?.t_s, scans.last()?.t_s);
-    (o1 < s0 || o0 > s1).then(|| {
-        format!(
-            "the odometry (t = {o0:.3}…{o1:.3} s) and the scans (t = {s0:.3}…{s1:.3} s) do not overlap: they are on different clocks; give the scans' receive times (--scanner-times) or put the odometry on the scans' clock"
-        )
-    })
+) -> Result<(), ReplayError> {
+    let (Some(o0), Some(o1)) = (odometry.first(), odometry.last()) else {
+        return Ok(());
+    };
+    let (Some(s0), Some(s1)) = (scans.first(), scans.last()) else {
+        return Ok(());
+    };
+    if o1.t_s < s0.t_s || o0.t_s > s1.t_s {
+        return Err(ReplayError::ClocksDisagree {
+            odometry_s: (o0.t_s, o1.t_s),
+            scans_s: (s0.t_s, s1.t_s),
+        });
+    }
+    Ok(())
 }
 
 /// What the scanner recording held.
@@ -248,6 +280,10 @@ pub struct ScanSummary {
     pub damaged_scans: usize,
     /// Damaged parts of the capture file read around (each one is in the warnings).
     pub file_damage: usize,
+    /// Odometry readings flagged (gaps, spikes, disagreeing increments; in the warnings).
+    pub odometry_findings: usize,
+    /// Of which left out of the replay (spikes, disagreeing increments).
+    pub odometry_left_out: usize,
 }
 
 /// Runs a replay with the chosen estimator.
@@ -267,9 +303,12 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
             source,
         })?;
     let recorded = scan_source::read_scans(&sources.scanner, sources.scanner_times.as_deref())?;
-    let odometry = odometry_csv::read(&sources.odometry)?;
+    let checked = odometry_check::check(&odometry_csv::read(&sources.odometry)?)?;
+    let odometry = &checked.readings;
     // Damage is reported, not fatal: the replay runs on every scan that survived it.
-    let warnings: Vec<String> = clock_warning(&odometry, &recorded.scans)
+    check_clocks(odometry, &recorded.scans)?;
+    let warnings: Vec<String> = checked
+        .warnings()
         .into_iter()
         .chain(
             recorded
@@ -311,12 +350,12 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
     let (steps, name) = match choice {
         EstimatorChoice::OdometryOnly => {
             let mut est = OdometryOnly::default();
-            let steps = drive(&mut est, initial, start, &odometry, &recorded);
+            let steps = drive(&mut est, initial, start, odometry, &recorded);
             (steps, est.name())
         }
         EstimatorChoice::Localizer => {
             let mut est = LocCoreEstimator::new(&map, &scenario);
-            let steps = drive(&mut est, initial, start, &odometry, &recorded);
+            let steps = drive(&mut est, initial, start, odometry, &recorded);
             (steps, est.name())
         }
     };
@@ -344,6 +383,13 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         bad_frames: recorded.bad_frames,
         damaged_scans: recorded.damaged.len(),
         file_damage: recorded.file_damage.len(),
+        odometry_findings: checked.findings.len(),
+        odometry_left_out: checked.findings.len()
+            - checked
+                .findings
+                .iter()
+                .filter(|f| f.kind == odometry_check::FindingKind::Gap)
+                .count(),
     };
     let world = WorldSummary::of_design(&line, scenario.tunnel.width_m, &map);
     let log = RunLog {

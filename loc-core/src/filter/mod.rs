@@ -3,6 +3,8 @@
 //!
 //! - [`Ekf::predict`]: odometry increments (vehicle frame) with a covariance given or from an
 //!   [`OdometryNoise`] model proportional to the distance travelled.
+//! - [`Ekf::coast`]: time without odometry, at the last speed with a [`CoastNoise`]
+//!   uncertainty growing with the time.
 //! - [`Ekf::update`]: a scan-match pose with its point-to-line information. Only the
 //!   directions the scan observes are updated: the information is split into eigen-directions
 //!   (θ scaled by a length, see [`crate::matching::observable_subspace`]) and those below the
@@ -13,9 +15,11 @@
 //! - Chi-square gating of the projected innovation (dof = observed directions); Joseph-form
 //!   covariance update; covariance kept symmetric, positive definite and bounded.
 
+mod coast;
 mod predict;
 mod update;
 
+pub use coast::{CoastNoise, CoastRejection};
 pub use predict::{OdometryIncrement, OdometryNoise, OdometryRejection};
 pub use update::{GateProbability, UpdateConfig, UpdateRejection, UpdateReport};
 

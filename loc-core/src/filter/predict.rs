@@ -177,6 +177,13 @@ impl Ekf {
         if q.diagonal().iter().any(|v| *v < 0.0) {
             return Err(OdometryRejection::InvalidCovariance);
         }
+        self.apply_motion(increment, &q);
+        Ok(())
+    }
+
+    /// Moves the pose by `increment` (vehicle frame) and adds its covariance `q` (checked
+    /// finite, symmetric, non-negative diagonal by the caller).
+    pub(super) fn apply_motion(&mut self, increment: &OdometryIncrement, q: &Matrix3<f32>) {
         let (s, c) = math::sin_cos(self.pose.theta_rad);
         let (dx, dy) = (increment.dx_m, increment.dy_m);
         // x' = x + R(θ)·(dx, dy), θ' = θ + dθ.
@@ -199,7 +206,6 @@ impl Ekf {
         );
         self.covariance = f * self.covariance * f.transpose() + g * q * g.transpose();
         self.condition();
-        Ok(())
     }
 }
 

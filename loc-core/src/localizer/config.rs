@@ -4,7 +4,7 @@
 use nalgebra::Matrix3;
 
 use super::largest_position_sd_m;
-use crate::filter::{OdometryNoise, UpdateConfig};
+use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
 use crate::matching::{MatchConfig, PrealignConfig};
 use crate::scan::SensorSetup;
 use crate::strip::StripConfig;
@@ -35,6 +35,8 @@ pub struct LocalizerConfig {
     pub matching: MatchConfig,
     /// Odometry noise model and step limits.
     pub odometry: OdometryNoise,
+    /// Motion uncertainty while no odometry arrives ([`super::Localizer::coast`]).
+    pub coast: CoastNoise,
     /// Chi-square gate probability and measurement floor of the match update (which
     /// directions a match observes is `matching`'s judgement).
     pub update: UpdateConfig,
@@ -51,6 +53,7 @@ impl Default for LocalizerConfig {
             prealign: PrealignConfig::default(),
             matching: MatchConfig::default(),
             odometry: OdometryNoise::default(),
+            coast: CoastNoise::default(),
             update: UpdateConfig::default(),
         }
     }

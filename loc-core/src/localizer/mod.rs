@@ -28,7 +28,7 @@ pub use status::{RejectReason, Status};
 
 use nalgebra::Matrix3;
 
-use crate::filter::{Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
+use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
@@ -112,6 +112,22 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     ) -> Result<(), OdometryRejection> {
         match self.ekf.as_mut() {
             Some(ekf) => ekf.predict_with_covariance(increment, covariance, &self.config.odometry),
+            None => Ok(()),
+        }
+    }
+
+    /// Predicts across `unobserved_s` seconds in which no odometry arrived, at the last
+    /// reported speed `v_mps` and yaw rate `omega_radps` (vehicle frame), with the
+    /// configured [`crate::filter::CoastNoise`]: the covariance grows with the time. Call it
+    /// for every gap in the odometry; a rejected coast leaves the state unchanged.
+    pub fn coast(
+        &mut self,
+        unobserved_s: f32,
+        v_mps: f32,
+        omega_radps: f32,
+    ) -> Result<(), CoastRejection> {
+        match self.ekf.as_mut() {
+            Some(ekf) => ekf.coast(unobserved_s, v_mps, omega_radps, &self.config.coast),
             None => Ok(()),
         }
     }

@@ -1,0 +1,138 @@
+//! Where the odometry log leaves time uncovered: each reading covers `[t_s − dt_s, t_s]`,
+//! and time that no reading covers (a gap in the log, readings lost on the bus) is motion
+//! nobody measured. [`GapTracker`] says how long each gap is, so the estimator coasts
+//! across it ([`loc_core::localizer::Localizer::coast`]) with an uncertainty that grows with
+//! the time, instead of keeping a covariance the pose no longer deserves.
+
+use crate::vehicle::odometry::OdometrySample;
+
+/// Uncovered time before a reading longer than this fraction of its `dt_s` is a gap (shorter
+/// ones are clock jitter between logger and wheel counter).
+pub const GAP_BEFORE_READING_DT: f64 = 0.5;
+
+/// At a scan, time since the last reading longer than this many `dt_s` is a gap (up to one
+/// interval is the normal wait for the next reading).
+pub const GAP_BEFORE_SCAN_DT: f64 = 1.5;
+
+/// A gap to coast across, at the speed of the reading before it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    /// The time uncovered, s.
+    pub unobserved_s: f64,
+    /// Forward speed of the last reading before the gap, m/s.
+    pub v_mps: f64,
+    /// Yaw rate of that reading, rad/s.
+    pub omega_radps: f64,
+}
+
+/// The part of the time line the odometry has covered so far.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GapTracker {
+    /// End of the covered time, s; `None` before the first reading.
+    covered_until_s: Option<f64>,
+    /// The last reading's speed, yaw rate and interval.
+    last: Option<(f64, f64, f64)>,
+}
+
+impl GapTracker {
+    /// Forgets the time line (a new initial pose).
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+
+    /// Takes `reading`: returns the gap before it (to coast first) and the fraction of its
+    /// increment to apply — less than 1 when part of its interval was already coasted at a
+    /// scan.
+    pub fn reading(&mut self, reading: &OdometrySample) -> (Option<Gap>, f64) {
+        let start = reading.t_s - reading.dt_s;
+        let mut gap = None;
+        let mut fraction = 1.0;
+        if let (Some(until), Some((v, w, _))) = (self.covered_until_s, self.last) {
+            let uncovered = start - until;
+            if uncovered > GAP_BEFORE_READING_DT * reading.dt_s {
+                gap = Some(Gap {
+                    unobserved_s: uncovered,
+                    v_mps: v,
+                    omega_radps: w,
+                });
+            } else if until > start + 1e-6 && reading.dt_s > 0.0 {
+                fraction = ((reading.t_s - until) / reading.dt_s).clamp(0.0, 1.0);
+            }
+        }
+        self.covered_until_s = Some(
+            self.covered_until_s
+                .map_or(reading.t_s, |u| u.max(reading.t_s)),
+        );
+        self.last = Some((reading.v_mps, reading.omega_radps, reading.dt_s));
+        (gap, fraction)
+    }
+
+    /// At a scan taken at `t_s`: the gap since the last reading when it is longer than
+    /// [`GAP_BEFORE_SCAN_DT`] intervals (the time up to the scan is then covered).
+    pub fn scan(&mut self, t_s: f64) -> Option<Gap> {
+        let (until, (v, w, dt)) = (self.covered_until_s?, self.last?);
+        let uncovered = t_s - until;
+        (uncovered > GAP_BEFORE_SCAN_DT * dt).then(|| {
+            self.covered_until_s = Some(t_s);
+            Gap {
+                unobserved_s: uncovered,
+                v_mps: v,
+                omega_radps: w,
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn reading(t_s: f64) -> OdometrySample {
+        OdometrySample {
+            t_s,
+            dt_s: 0.01,
+            v_mps: 2.0,
+            omega_radps: 0.1,
+            delta: (0.02, 0.0, 0.001),
+        }
+    }
+
+    #[test]
+    fn contiguous_readings_have_no_gap_and_a_missing_second_is_one() {
+        let mut g = GapTracker::default();
+        for k in 1..=100 {
+            assert_eq!(g.reading(&reading(f64::from(k) * 0.01)), (None, 1.0));
+            // A scan between readings waits for the next one: no gap.
+            assert_eq!(g.scan(f64::from(k) * 0.01 + 0.004), None);
+        }
+        // The next reading comes 1 s late.
+        let (gap, f) = g.reading(&reading(2.01));
+        let gap = gap.unwrap();
+        assert!((gap.unobserved_s - 1.0).abs() < 1e-9);
+        assert_eq!((gap.v_mps, gap.omega_radps, f), (2.0, 0.1, 1.0));
+    }
+
+    #[test]
+    fn a_scan_inside_a_gap_coasts_up_to_itself_and_the_late_reading_keeps_its_rest() {
+        let mut g = GapTracker::default();
+        g.reading(&reading(1.0));
+        let gap = g.scan(1.5).unwrap();
+        assert!((gap.unobserved_s - 0.5).abs() < 1e-12);
+        // The next reading ends after the scan: from 1.5 s to 2.0 s is a gap (coasted at the
+        // reading), then all of its own interval.
+        let (gap, f) = g.reading(&reading(2.0));
+        assert!((gap.unwrap().unobserved_s - 0.49).abs() < 1e-9);
+        assert_eq!(f, 1.0);
+        // A reading whose interval straddles a coasted scan applies only its uncovered part.
+        let mut g = GapTracker::default();
+        g.reading(&reading(1.0));
+        g.scan(1.5);
+        let late = OdometrySample {
+            dt_s: 0.6,
+            ..reading(1.6)
+        };
+        let (gap, f) = g.reading(&late);
+        assert_eq!(gap, None);
+        assert!((f - 0.1 / 0.6).abs() < 1e-9, "{f}");
+    }
+}
