@@ -61,9 +61,10 @@ pub fn split_region(region: &[u8]) -> (&[u8], &[u8]) {
     region.split_at(region.len().saturating_sub(START_POSE_BLOCK_BYTES))
 }
 
-/// Loads the map from `region` (the map flash region) into `map`.
+/// Loads the map from `region` (the map flash region) into `map`. The map part of the
+/// region may hold padding after the map (erased `0xFF` or `0x00`), nothing else.
 pub fn load_map(region: &[u8], map: &mut TunnelMap) -> Result<(), MapError> {
-    map.load_from_bytes(split_region(region).0)
+    map.load_from_region(split_region(region).0)
 }
 
 /// The start pose: the record in `region`'s start-pose block, else the entrance of `map`

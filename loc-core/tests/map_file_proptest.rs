@@ -82,6 +82,30 @@ proptest! {
     }
 
     #[test]
+    fn any_bytes_after_a_file_are_refused_and_only_padding_after_a_region_map(
+        // Padding bytes two times in three, so both outcomes of the region come up.
+        tail in proptest::collection::vec(
+            prop_oneof![Just(0x00u8), Just(0xFFu8), any::<u8>()],
+            1..64,
+        ),
+    ) {
+        let mut bytes = valid_bytes();
+        let n = bytes.len();
+        bytes.extend_from_slice(&tail);
+        let err = Small::from_bytes(&bytes).unwrap_err();
+        prop_assert_eq!(err, MapError::TrailingBytes { map_len: n, offset: n, found: tail[0] });
+        let first_not_padding = tail.iter().position(|&b| b != 0x00 && b != 0xFF);
+        let mut m = Small::new();
+        match (m.load_from_region(&bytes), first_not_padding) {
+            (Ok(()), None) => check_loaded(&m),
+            (Err(MapError::TrailingBytes { offset, found, .. }), Some(i)) => {
+                prop_assert_eq!((offset, found), (n + i, tail[i]));
+            }
+            (r, i) => prop_assert!(false, "{:?} with first non-padding byte {:?}", r, i),
+        }
+    }
+
+    #[test]
     fn every_truncation_is_reported_as_truncated(cut in 0usize..10_000) {
         let bytes = valid_bytes();
         let cut = cut % bytes.len();

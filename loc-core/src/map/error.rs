@@ -104,6 +104,27 @@ pub enum MapError {
         /// Version this build reads and writes.
         supported: u16,
     },
+    /// A reserved header byte is not 0 (the header's bytes 6 and 7, outside the CRC): the
+    /// file was written by a different encoder, or its header is damaged.
+    ReservedNotZero {
+        /// Offset of the byte in the file.
+        offset: usize,
+        /// The byte found.
+        found: u8,
+    },
+    /// Bytes follow the map where none may (outside the CRC): after a map file's payload
+    /// ([`StoredMap::load_from_bytes`](super::StoredMap::load_from_bytes)) any byte, after a
+    /// map in a flash region ([`StoredMap::load_from_region`](super::StoredMap::load_from_region))
+    /// a byte that is not padding (`0xFF` or `0x00`). Another file appended, or the tail of an
+    /// older, longer map.
+    TrailingBytes {
+        /// Length of the map (header and payload), bytes.
+        map_len: usize,
+        /// Offset of the first byte refused.
+        offset: usize,
+        /// That byte.
+        found: u8,
+    },
     /// The payload's CRC-32 does not match the header: the file is damaged.
     ChecksumMismatch {
         /// CRC in the header.
@@ -224,6 +245,20 @@ impl fmt::Display for MapError {
                 f,
                 "map checksum mismatch: header {stored:#010x}, payload {computed:#010x}; \
                  the map is damaged, re-flash it"
+            ),
+            MapError::ReservedNotZero { offset, found } => write!(
+                f,
+                "map header byte {offset} is reserved and must be 0, found {found:#04x}: \
+                 not written by this format's encoder, or damaged; re-export the map"
+            ),
+            MapError::TrailingBytes {
+                map_len,
+                offset,
+                found,
+            } => write!(
+                f,
+                "bytes after the map: it ends at byte {map_len}, byte {offset} is {found:#04x}; \
+                 give the map file alone, or erase the flash region before writing the map"
             ),
             MapError::Corrupt { part, index } => {
                 write!(

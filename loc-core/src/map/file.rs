@@ -18,8 +18,14 @@
 //! `W, H, D: f32`, and for F1…F4 only `h1…h6: [f32; 6]`).
 //!
 //! Landmarks are stored compactly (model, genes, arc position), not as expanded polylines;
-//! loading expands them and rebuilds the index. Bytes after the payload are ignored (a
-//! flash partition may be padded).
+//! loading expands them and rebuilds the index.
+//!
+//! The CRC covers the payload only, so the bytes outside it are checked on their own: the
+//! reserved header bytes must be 0 ([`MapError::ReservedNotZero`]: a different encoder, or
+//! damage), and nothing may follow the payload ([`MapError::TrailingBytes`]: another file
+//! appended, or the tail of an older, longer map). A map in a flash region that is longer
+//! than the map is read with [`StoredMap::load_from_region`], which takes erased or
+//! zero-filled padding (`0xFF` or `0x00` bytes) after the map and nothing else.
 
 use crate::crc::{crc32, Crc32};
 use crate::geometry::Point2;
@@ -37,6 +43,21 @@ pub const MAP_FORMAT_VERSION: u16 = 1;
 
 /// Size of the header, bytes.
 pub const MAP_HEADER_LEN: usize = 16;
+
+/// What may follow the map's payload.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum After {
+    /// Nothing: the bytes are one map file.
+    Nothing,
+    /// Flash padding: `0xFF` (erased) or `0x00` (zero-filled) bytes.
+    Padding,
+}
+
+impl After {
+    fn allows(self, byte: u8) -> bool {
+        self == After::Padding && (byte == 0xFF || byte == 0x00)
+    }
+}
 
 /// The fixed part of a landmark record.
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -178,24 +199,40 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         Ok(MAP_HEADER_LEN + len)
     }
 
-    /// Loads a map saved by [`StoredMap::to_slice`].
+    /// Loads a map saved by [`StoredMap::to_slice`]: `bytes` are the file, nothing more
+    /// (see [`StoredMap::load_from_bytes`]).
     pub fn from_bytes(bytes: &[u8]) -> Result<Self, MapError> {
         let mut map = Self::new();
         map.load_from_bytes(bytes)?;
         Ok(map)
     }
 
-    /// Loads a map in place (no second copy of a large map on the stack). On error the map
-    /// is left empty.
+    /// Loads a map in place (no second copy of a large map on the stack) from `bytes`, which
+    /// are one map file and nothing more: a byte after the payload is refused
+    /// ([`MapError::TrailingBytes`]), as is a reserved header byte that is not 0
+    /// ([`MapError::ReservedNotZero`]). On error the map is left empty.
     pub fn load_from_bytes(&mut self, bytes: &[u8]) -> Result<(), MapError> {
-        let r = self.load_inner(bytes);
+        self.load_checked(bytes, After::Nothing)
+    }
+
+    /// Loads the map at the start of a flash region (the firmware's map partition): as
+    /// [`StoredMap::load_from_bytes`], except that the region's bytes after the map may be
+    /// padding, each `0xFF` (erased flash) or `0x00` (a zero-filled image). Any other byte
+    /// there is refused ([`MapError::TrailingBytes`]): left-overs of an older, longer map
+    /// flashed without an erase, or a region that does not hold what its writer meant.
+    pub fn load_from_region(&mut self, region: &[u8]) -> Result<(), MapError> {
+        self.load_checked(region, After::Padding)
+    }
+
+    fn load_checked(&mut self, bytes: &[u8], after: After) -> Result<(), MapError> {
+        let r = self.load_inner(bytes, after);
         if r.is_err() {
             self.clear();
         }
         r
     }
 
-    fn load_inner(&mut self, bytes: &[u8]) -> Result<(), MapError> {
+    fn load_inner(&mut self, bytes: &[u8], allowed_after: After) -> Result<(), MapError> {
         let got = bytes.len();
         let Some((header, after)) = bytes.split_first_chunk::<MAP_HEADER_LEN>() else {
             return Err(MapError::Truncated {
@@ -203,7 +240,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
                 got,
             });
         };
-        let [m0, m1, m2, m3, v0, v1, _, _, l0, l1, l2, l3, c0, c1, c2, c3] = *header;
+        let [m0, m1, m2, m3, v0, v1, r0, r1, l0, l1, l2, l3, c0, c1, c2, c3] = *header;
         let magic = [m0, m1, m2, m3];
         if magic != MAP_MAGIC {
             return Err(MapError::BadMagic { found: magic });
@@ -214,6 +251,9 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
                 found: version,
                 supported: MAP_FORMAT_VERSION,
             });
+        }
+        if let Some((offset, found)) = [(6, r0), (7, r1)].into_iter().find(|&(_, b)| b != 0) {
+            return Err(MapError::ReservedNotZero { offset, found });
         }
         let payload_len = u32::from_le_bytes([l0, l1, l2, l3]) as usize;
         let stored = u32::from_le_bytes([c0, c1, c2, c3]);
@@ -228,6 +268,20 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         let computed = crc.finish();
         if computed != stored {
             return Err(MapError::ChecksumMismatch { stored, computed });
+        }
+        // Checked after the CRC: a damaged length field is reported as the damage it is.
+        let map_len = MAP_HEADER_LEN.saturating_add(payload_len);
+        let rest = after.get(payload_len..).unwrap_or(&[]);
+        if let Some((i, &found)) = rest
+            .iter()
+            .enumerate()
+            .find(|&(_, &b)| !allowed_after.allows(b))
+        {
+            return Err(MapError::TrailingBytes {
+                map_len,
+                offset: map_len.saturating_add(i),
+                found,
+            });
         }
         self.decode_payload(payload)
     }
@@ -332,9 +386,71 @@ mod tests {
         assert_eq!(back.index_stats(), m.index_stats());
         let p = Point2::new(20.0, 3.0);
         assert_eq!(back.nearest(p, 5.0), m.nearest(p, 5.0));
-        // Padding after the payload is ignored.
+        // A flash region may pad the map with erased or zero bytes.
         buf[n..n + 8].fill(0xFF);
-        assert!(Small::from_bytes(&buf[..n + 8]).is_ok());
+        let mut region = Small::new();
+        region.load_from_region(&buf[..n + 16]).unwrap();
+        assert_eq!(region.segments(), m.segments());
+        assert_eq!(region.landmarks(), m.landmarks());
+        region.load_from_region(&buf[..n]).unwrap();
+    }
+
+    #[test]
+    fn bytes_outside_the_checksum_are_checked() {
+        let m = sample();
+        let mut buf = [0u8; 8192];
+        let n = m.to_slice(&mut buf).unwrap();
+        let bytes = &buf[..n];
+        // A flipped reserved header byte.
+        for (offset, flip) in [(6, 0x01), (7, 0x80)] {
+            let mut bad = bytes.to_vec();
+            bad[offset] ^= flip;
+            assert_eq!(
+                Small::from_bytes(&bad).unwrap_err(),
+                MapError::ReservedNotZero {
+                    offset,
+                    found: flip
+                }
+            );
+            let mut target = sample();
+            assert!(target.load_from_region(&bad).is_err());
+            assert!(target.is_empty());
+        }
+        // One byte appended to the file, whatever its value.
+        for extra in [0x00, 0xFF, 0x42] {
+            let mut longer = bytes.to_vec();
+            longer.push(extra);
+            assert_eq!(
+                Small::from_bytes(&longer).unwrap_err(),
+                MapError::TrailingBytes {
+                    map_len: n,
+                    offset: n,
+                    found: extra
+                }
+            );
+        }
+        // In a flash region, padding is taken and anything else after the map is not: the
+        // tail of an older map left in the region, say.
+        let mut region = bytes.to_vec();
+        region.extend_from_slice(&[0xFF; 32]);
+        region.extend_from_slice(&[0x00; 32]);
+        assert!(Small::new().load_from_region(&region).is_ok());
+        region[n + 40] = 0x3F;
+        assert_eq!(
+            Small::new().load_from_region(&region).unwrap_err(),
+            MapError::TrailingBytes {
+                map_len: n,
+                offset: n + 40,
+                found: 0x3F
+            }
+        );
+        // The checksum still comes first: a damaged payload is reported as damaged.
+        let mut flip = region.clone();
+        flip[n / 2] ^= 0x10;
+        assert!(matches!(
+            Small::new().load_from_region(&flip),
+            Err(MapError::ChecksumMismatch { .. })
+        ));
     }
 
     #[test]
