@@ -194,6 +194,7 @@ impl PoseStatus {
             Status::Tracking => PoseStatus::Tracking,
             Status::Degenerate { .. } => PoseStatus::Degenerate,
             Status::NotInitialised => PoseStatus::NotInitialised,
+            Status::MapUnconfirmed { .. } => PoseStatus::MapUnconfirmed,
             // Any other status (a newer loc-core's): the scan did not update the pose.
             _ => PoseStatus::OdometryOnly,
         }

@@ -25,6 +25,10 @@ pub enum PoseStatus {
     /// The controller has no usable map and does not localise: flash a map and reset. The
     /// pose fields are zero.
     NoMap,
+    /// The last scan updated the estimate, but the map is not confirmed: the landmarks in
+    /// view have not fitted it lately (another tunnel's map, landmarks moved or damaged). The
+    /// pose may be confidently wrong: do not steer by it.
+    MapUnconfirmed,
 }
 
 /// One pose estimate, world frame.

@@ -30,6 +30,7 @@ impl EstimatorStatus {
                 Status::DeadReckoning => "dead-reckoning",
                 Status::Tracking => "tracking",
                 Status::Degenerate { .. } => "degenerate",
+                Status::MapUnconfirmed { .. } => "map-unconfirmed",
                 Status::MatchRejected { reason } => match reason {
                     RejectReason::Match(e) => match e {
                         MatchError::TooFewPoints { .. } => "rejected:too-few-points",

@@ -141,7 +141,7 @@ fn replay_names_what_is_missing() {
 /// A user's own recording: the real LMS511 capture as SICK's `.pcapng.json` (an office, not a
 /// tunnel), with an odometry log of a vehicle standing still, a map file and an initial pose,
 /// without ground truth: every scan is decoded and goes through the localiser, nothing is
-/// scored, and nothing panics on a scene that matches no map.
+/// scored, nothing panics on a scene that matches no map, and no pose claims to track it.
 #[test]
 fn replays_a_real_lms511_capture_without_ground_truth() {
     let capture = sick_captures::path(sick_captures::LMS511_JSON);
@@ -170,7 +170,14 @@ fn replays_a_real_lms511_capture_without_ground_truth() {
     let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
     assert_eq!(rep.source.scans, 174);
     assert_eq!(rep.source.time_source, TimeSource::Capture);
-    assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
+    // An office is no tunnel of the map: the replay says the map was not confirmed.
+    assert_eq!(rep.warnings.len(), 1, "{:?}", rep.warnings);
+    assert!(
+        rep.warnings[0].contains("map was not confirmed"),
+        "{:?}",
+        rep.warnings
+    );
+    assert!(!rep.steps.iter().any(|s| s.status.is_tracking()));
     assert!(
         rep.source.other_frames > 0,
         "the start-up dialogue is skipped"

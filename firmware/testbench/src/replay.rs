@@ -27,8 +27,8 @@ pub struct ReplayReport {
     pub tracking: StageStats,
     /// The scan with the largest end-to-end cost, and its per-stage costs.
     pub worst_scan: (usize, StageCosts),
-    /// Scans per status: tracking, degenerate, rejected.
-    pub statuses: [u32; 3],
+    /// Scans per status: tracking, degenerate, rejected, map unconfirmed.
+    pub statuses: [u32; 4],
     /// Position error against the truth after the last scan, metres.
     pub final_error_m: f32,
     /// Heading error against the truth after the last scan, radians.
@@ -84,7 +84,7 @@ pub fn replay<'m, B: Board>(
         end_to_end: StageStats::new(),
         tracking: StageStats::new(),
         worst_scan: (0, StageCosts::default()),
-        statuses: [0; 3],
+        statuses: [0; 4],
         final_error_m: f32::INFINITY,
         final_heading_error_rad: f32::INFINITY,
         max_late_error_m: 0.0,
@@ -124,6 +124,7 @@ pub fn replay<'m, B: Board>(
         report.statuses[match status {
             Status::Tracking => 0,
             Status::Degenerate { .. } => 1,
+            Status::MapUnconfirmed { .. } => 3,
             _ => 2,
         }] += 1;
         defmt::info!(

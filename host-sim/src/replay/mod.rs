@@ -307,7 +307,7 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
     let odometry = &checked.readings;
     // Damage is reported, not fatal: the replay runs on every scan that survived it.
     check_clocks(odometry, &recorded.scans)?;
-    let warnings: Vec<String> = checked
+    let mut warnings: Vec<String> = checked
         .warnings()
         .into_iter()
         .chain(
@@ -406,12 +406,34 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: 0.0,
     };
+    warnings.extend(map_warning(&steps));
     Ok(Replay {
         steps,
         log,
         source,
         map,
         warnings,
+    })
+}
+
+/// Says so when the localiser did not confirm the map on a tenth of the scans or more: the
+/// landmarks in view did not fit it (another tunnel's map, landmarks moved or damaged).
+fn map_warning(steps: &[ReplayStep]) -> Option<String> {
+    let unconfirmed = steps
+        .iter()
+        .filter(|s| {
+            matches!(
+                s.status,
+                EstimatorStatus::Localizer(loc_core::localizer::Status::MapUnconfirmed { .. })
+            )
+        })
+        .count();
+    (unconfirmed > 0 && unconfirmed * 10 >= steps.len()).then(|| {
+        format!(
+            "the map was not confirmed on {unconfirmed} of {} scans ({:.0} %): the landmarks in view did not fit it, and those poses are reported map-unconfirmed, not tracking. Is this the drive's map? (another tunnel's, or landmarks moved or damaged since the survey)",
+            steps.len(),
+            100.0 * unconfirmed as f64 / steps.len().max(1) as f64
+        )
     })
 }
 

@@ -3,6 +3,7 @@
 
 use nalgebra::Matrix3;
 
+use super::integrity::IntegrityConfig;
 use super::largest_position_sd_m;
 use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
 use crate::matching::{MatchConfig, PrealignConfig};
@@ -40,6 +41,8 @@ pub struct LocalizerConfig {
     /// Chi-square gate probability and measurement floor of the match update (which
     /// directions a match observes is `matching`'s judgement).
     pub update: UpdateConfig,
+    /// When the map explains a scan well enough to use its match.
+    pub integrity: IntegrityConfig,
 }
 
 impl Default for LocalizerConfig {
@@ -55,6 +58,7 @@ impl Default for LocalizerConfig {
             odometry: OdometryNoise::default(),
             coast: CoastNoise::default(),
             update: UpdateConfig::default(),
+            integrity: IntegrityConfig::default(),
         }
     }
 }

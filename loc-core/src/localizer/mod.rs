@@ -8,18 +8,22 @@
 //! 3. [`crate::matching::match_scan_with_prealign`]: landmark pre-alignment
 //!    ([`crate::matching::prealign_along_tunnel`]) and Hausdorff or PL-ICP matching
 //!    ([`crate::matching::match_scan`]) against the map;
-//! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions.
+//! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions;
+//!    then [`Integrity`]: does the map explain the scan's landmarks at the matched pose? A map
+//!    that has not lately is not trusted, and the status says so ([`Status::MapUnconfirmed`]).
 //!
 //! Memory: a `Localizer` holds its scratch buffers (≈ 38 KiB: point labels, selected
 //! points, the match workspace); keep it in a `static` or on a large stack. No allocation,
 //! no panics, bounded time per call.
 
 mod config;
+mod integrity;
 mod stages;
 mod start_pose;
 mod status;
 
 pub use config::LocalizerConfig;
+pub use integrity::{Integrity, IntegrityConfig, IntegrityMonitor};
 pub use stages::{Stage, StageObserver};
 pub use start_pose::{
     StartPose, StartPoseError, START_POSE_BYTES, START_POSE_MAGIC, START_POSE_VERSION,
@@ -48,6 +52,10 @@ pub struct Localizer<'m, M: MapQuery> {
     workspace: MatchWorkspace,
     last_strip: Option<StripSummary>,
     last_match: Option<MatchResult>,
+    last_integrity: Option<Integrity>,
+    integrity_monitor: IntegrityMonitor,
+    /// Distance driven by the predictions so far, metres (for the integrity monitor).
+    odometer_m: f32,
 }
 
 impl<'m, M: MapQuery> Localizer<'m, M> {
@@ -77,6 +85,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             workspace: MatchWorkspace::new(),
             last_strip: None,
             last_match: None,
+            last_integrity: None,
+            integrity_monitor: IntegrityMonitor::default(),
+            odometer_m: 0.0,
         }
     }
 
@@ -88,6 +99,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     ) -> Result<(), FilterInitError> {
         self.ekf = Some(Ekf::new(pose, covariance)?);
         self.status = Status::DeadReckoning;
+        self.integrity_monitor = IntegrityMonitor::default();
         Ok(())
     }
 
@@ -98,10 +110,12 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         &mut self,
         increment: &OdometryIncrement,
     ) -> Result<(), OdometryRejection> {
-        match self.ekf.as_mut() {
+        let r = match self.ekf.as_mut() {
             Some(ekf) => ekf.predict(increment, &self.config.odometry),
             None => Ok(()),
-        }
+        };
+        self.count_distance(r.is_ok(), increment.distance_m());
+        r
     }
 
     /// Predicts with an odometry increment and its own covariance (vehicle frame).
@@ -110,10 +124,12 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         increment: &OdometryIncrement,
         covariance: &Matrix3<f32>,
     ) -> Result<(), OdometryRejection> {
-        match self.ekf.as_mut() {
+        let r = match self.ekf.as_mut() {
             Some(ekf) => ekf.predict_with_covariance(increment, covariance, &self.config.odometry),
             None => Ok(()),
-        }
+        };
+        self.count_distance(r.is_ok(), increment.distance_m());
+        r
     }
 
     /// Predicts across `unobserved_s` seconds in which no odometry arrived, at the last
@@ -126,9 +142,18 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         v_mps: f32,
         omega_radps: f32,
     ) -> Result<(), CoastRejection> {
-        match self.ekf.as_mut() {
+        let r = match self.ekf.as_mut() {
             Some(ekf) => ekf.coast(unobserved_s, v_mps, omega_radps, &self.config.coast),
             None => Ok(()),
+        };
+        self.count_distance(r.is_ok(), crate::math::abs(v_mps * unobserved_s));
+        r
+    }
+
+    /// Adds an applied prediction's distance to the odometer.
+    fn count_distance(&mut self, applied: bool, distance_m: f32) {
+        if applied && distance_m.is_finite() {
+            self.odometer_m += distance_m;
         }
     }
 
@@ -186,6 +211,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             Ok(r) => r.result,
             Err(e) => {
                 self.last_match = None;
+                self.last_integrity = None;
                 self.status = Status::MatchRejected { reason: e.into() };
                 return self.status;
             }
@@ -193,8 +219,17 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.last_match = Some(result);
 
         observer.begin(Stage::Update);
-        self.status = match ekf.update_with_match(&result, &cfg.update) {
+        let updated = ekf.update_with_match(&result, &cfg.update);
+        // Whether the map explains the landmarks decides whether the pose may be called
+        // tracked (part of the update stage).
+        let integrity = Integrity::check(self.map, points, labels, result.pose, &cfg.integrity);
+        self.last_integrity = Some(integrity);
+        let trusted = self
+            .integrity_monitor
+            .observe(&integrity, self.odometer_m, &cfg.integrity);
+        self.status = match updated {
             Err(e) => Status::MatchRejected { reason: e.into() },
+            Ok(_) if !trusted => Status::MapUnconfirmed { integrity },
             Ok(_) if result.degeneracy.degenerate => Status::Degenerate {
                 direction_world: result.degeneracy.direction_world,
                 eigenvalue_per_m2: result.degeneracy.min_eigenvalue_per_m2,
@@ -203,6 +238,17 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         };
         observer.end(Stage::Update);
         self.status
+    }
+
+    /// How well the map explained the last matched scan's landmarks (`None` before the
+    /// first match).
+    pub fn last_integrity(&self) -> Option<&Integrity> {
+        self.last_integrity.as_ref()
+    }
+
+    /// The share of landmark points the map explained over the recent scans.
+    pub fn integrity_monitor(&self) -> &IntegrityMonitor {
+        &self.integrity_monitor
     }
 
     /// The pose estimate (vehicle frame in the world frame); `None` before initialisation.

@@ -59,6 +59,15 @@ pub enum Status {
         /// The information along it, m⁻².
         eigenvalue_per_m2: f32,
     },
+    /// The last scan updated the pose, but the map is not confirmed
+    /// ([`super::IntegrityMonitor`]): at start-up until the landmarks have fitted it over a
+    /// few metres, later when they stop fitting it (another tunnel's map, landmarks moved or
+    /// damaged since the survey). The pose and its covariance may be confidently wrong: do
+    /// not rely on them until the status is tracking again.
+    MapUnconfirmed {
+        /// How much of the last scan's landmarks the map explained.
+        integrity: super::Integrity,
+    },
     /// The last scan was not used; the estimate continues on odometry.
     MatchRejected {
         /// Why.
@@ -79,6 +88,11 @@ impl fmt::Display for Status {
                 f,
                 "degenerate along ({:.3}, {:.3}) (information {eigenvalue_per_m2:.1} m^-2): odometry there",
                 direction_world.x_m, direction_world.y_m
+            ),
+            Status::MapUnconfirmed { integrity } => write!(
+                f,
+                "map not confirmed: the landmarks in view have not fitted it lately ({} of the last scan's {} did; at start-up, until they have over a few metres); if it lasts, is this the drive's map? (landmarks moved, or another tunnel) The pose may be confidently wrong",
+                integrity.clusters_explained, integrity.clusters
             ),
             Status::MatchRejected { reason } => write!(f, "scan not used: {reason}"),
         }

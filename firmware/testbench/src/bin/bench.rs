@@ -104,10 +104,11 @@ fn main() -> ! {
         &report.tracking,
     );
     defmt::println!(
-        "localizer: {=u32} tracking, {=u32} degenerate, {=u32} rejected; final error {=f32} m, {=f32} rad; max error over the second half {=f32} m",
+        "localizer: {=u32} tracking, {=u32} degenerate, {=u32} rejected, {=u32} map unconfirmed; final error {=f32} m, {=f32} rad; max error over the second half {=f32} m",
         report.statuses[0],
         report.statuses[1],
         report.statuses[2],
+        report.statuses[3],
         report.final_error_m,
         report.final_heading_error_rad,
         report.max_late_error_m

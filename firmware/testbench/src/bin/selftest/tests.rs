@@ -319,14 +319,15 @@ fn controller_converges(
     let report = replay::replay(board, map, slot).map_err(|_| "replay could not run")?;
     let initial_error_m = loc_core::math::hypot(INITIAL_ERROR[0], INITIAL_ERROR[1]);
     defmt::println!(
-        "  initial error {=f32} m; final {=f32} m, {=f32} rad; worst over the second half {=f32} m; {=u32} tracking, {=u32} degenerate, {=u32} rejected",
+        "  initial error {=f32} m; final {=f32} m, {=f32} rad; worst over the second half {=f32} m; {=u32} tracking, {=u32} degenerate, {=u32} rejected, {=u32} map unconfirmed",
         initial_error_m,
         report.final_error_m,
         report.final_heading_error_rad,
         report.max_late_error_m,
         report.statuses[0],
         report.statuses[1],
-        report.statuses[2]
+        report.statuses[2],
+        report.statuses[3]
     );
     check(
         report.final_error_m < 0.05 && report.max_late_error_m < 0.1,
@@ -339,6 +340,12 @@ fn controller_converges(
     check(
         report.statuses[2] as usize * 4 <= SCAN_COUNT,
         "more than a quarter of the scans rejected",
+    )?;
+    // The drive's own map: confirmed from the first scan that sees two landmarks, or after
+    // a few metres when the acquisition scan met them only in part.
+    check(
+        report.statuses[3] as usize * 4 <= SCAN_COUNT,
+        "the drive's own map unconfirmed on more than a quarter of the scans",
     )
 }
 

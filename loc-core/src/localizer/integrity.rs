@@ -1,0 +1,356 @@
+//! Does the map explain the scan? After a match, the scan's landmarks must lie on the map's
+//! landmarks at the matched pose. With another tunnel's map, or the right tunnel with its
+//! landmarks moved, the matcher still finds the pose that fits best — the K-best Hausdorff
+//! distance is built to ignore what does not fit — and its covariance, computed from the
+//! points that did fit, stays at millimetres. Only the landmarks the map leaves unexplained
+//! show that the fit is a compromise, and a pose from it would be confidently wrong.
+//!
+//! The verdict is per landmark **cluster** (a run of landmark points in beam order, one
+//! observed landmark or one face of it): a cluster is explained when most of its points lie
+//! within `explained_within_m` of map geometry. One scan sees two or three landmarks and a
+//! damaged one leaves its cluster unexplained, so the judgement weighs the recent scans
+//! ([`IntegrityMonitor`]: the running share of explained clusters over about
+//! `1 / window_weight` scans). The map is trusted from the first scan whose two or more
+//! landmarks all fit, until the share falls below `min_recent_fraction` (a scan whose own
+//! landmarks mostly misfit is not trusted either); then, and when that first scan does not
+//! fit whole, only again once the landmarks have fitted over `confirm_distance_m` driven:
+//! the scanner has then seen new landmarks, which a wrong map or a wrong alignment would
+//! not explain. While it is not, the localizer goes on matching (its pose is still the best it
+//! has) but reports [`super::Status::MapUnconfirmed`] instead of tracking, so nobody takes
+//! the pose for what it claims.
+//!
+//! Walls take no part: every tunnel has two, and a foreign map of the same width explains
+//! them as well as the right one.
+//!
+//! Measured in `host-sim` (`tunnel-1km`, `paper-10m`, `s-bend-400m`): see the README's
+//! "Integrity" section for the share of clusters the right map, a damaged one and foreign
+//! ones explain.
+
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+use crate::strip::{PointLabel, VehiclePoint};
+
+/// When the map explains a scan, and when it is trusted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IntegrityConfig {
+    /// A landmark point is explained when map geometry lies within this of it at the
+    /// matched pose, metres.
+    pub explained_within_m: f32,
+    /// Consecutive landmark points farther apart than this start a new cluster, metres.
+    pub max_cluster_gap_m: f32,
+    /// Clusters with fewer points give no verdict (a glint, a far landmark).
+    pub min_cluster_points: u16,
+    /// A cluster is explained when at least this fraction of its checked points are.
+    pub cluster_explained_fraction: f32,
+    /// Landmark points checked against the map per scan, at most (every n-th; the map
+    /// searches are the check's cost: ≈ 1 700 instructions each on a Cortex-M7).
+    pub max_checked_points: u16,
+    /// Below this recent share of explained clusters the map is not trusted.
+    pub min_recent_fraction: f32,
+    /// Below this share of its own explained clusters (two or more) a scan is not trusted.
+    pub min_scan_fraction: f32,
+    /// A scan counts towards regaining trust when it has two clusters or more and at least
+    /// this share of them is explained.
+    pub confirm_scan_fraction: f32,
+    /// Once the map was not trusted, distance over which the landmarks must fit before it is
+    /// trusted again, metres.
+    pub confirm_distance_m: f32,
+    /// Weight of each new scan in the running share, `(0, 1]`.
+    pub window_weight: f32,
+}
+
+impl Default for IntegrityConfig {
+    /// 5 cm (5σ of the LMS511's range noise); clusters of 4 points or more, split at 0.3 m
+    /// gaps, explained when half of their checked points are (32 points checked per scan); trusted above 70 % of the last ≈ 16
+    /// scans' clusters and half of the scan's own, again after 3 m of scans explaining two
+    /// thirds of theirs.
+    fn default() -> Self {
+        Self {
+            explained_within_m: 0.05,
+            max_cluster_gap_m: 0.3,
+            min_cluster_points: 4,
+            cluster_explained_fraction: 0.5,
+            max_checked_points: 32,
+            min_recent_fraction: 0.7,
+            min_scan_fraction: 0.5,
+            confirm_scan_fraction: 2.0 / 3.0,
+            confirm_distance_m: 3.0,
+            window_weight: 1.0 / 16.0,
+        }
+    }
+}
+
+/// How well the map explains one scan's landmarks at the matched pose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Integrity {
+    /// Landmark points of the scan.
+    pub landmark_points: u16,
+    /// Of which checked against the map (at most `max_checked_points`).
+    pub checked_points: u16,
+    /// Of which the map explains.
+    pub explained_points: u16,
+    /// Landmark clusters with a verdict.
+    pub clusters: u8,
+    /// Of which the map explains.
+    pub clusters_explained: u8,
+}
+
+/// A run of landmark points being gathered: points, points checked against the map, of
+/// which explained, last point.
+#[derive(Clone, Copy)]
+struct Run {
+    points: u16,
+    checked: u16,
+    explained: u16,
+    last: Point2,
+}
+
+impl Integrity {
+    /// Judges the landmark points of `points` (vehicle frame, labelled by `labels`) with the
+    /// vehicle at `pose`.
+    pub fn check<M: MapQuery, P: VehiclePoint>(
+        map: &M,
+        points: &[P],
+        labels: &[PointLabel],
+        pose: Pose2,
+        config: &IntegrityConfig,
+    ) -> Self {
+        let to_world = pose.transform();
+        let mut out = Self::default();
+        // The map searches are the cost: at most `max_checked_points`, evenly spread.
+        let landmarks = labels
+            .iter()
+            .take(points.len())
+            .filter(|l| **l == PointLabel::Landmark)
+            .count();
+        let stride = landmarks
+            .div_ceil(usize::from(config.max_checked_points.max(1)))
+            .max(1);
+        let mut run: Option<Run> = None;
+        let mut k = 0usize;
+        for (p, &label) in points.iter().zip(labels) {
+            if label != PointLabel::Landmark {
+                // Beams without a return do not split a landmark; anything else does.
+                if label != PointLabel::OutOfRange {
+                    out.close(run.take(), config);
+                }
+                continue;
+            }
+            let v = p.vehicle_point();
+            let gap = config.max_cluster_gap_m;
+            if run.is_some_and(|r| r.last.sub(v).norm_sq() > gap * gap) {
+                out.close(run.take(), config);
+            }
+            out.landmark_points = out.landmark_points.saturating_add(1);
+            let r = run.get_or_insert(Run {
+                points: 0,
+                checked: 0,
+                explained: 0,
+                last: v,
+            });
+            r.points = r.points.saturating_add(1);
+            r.last = v;
+            if k % stride == 0 {
+                let explained = map
+                    .nearest(to_world.apply(v), config.explained_within_m)
+                    .is_some();
+                out.checked_points = out.checked_points.saturating_add(1);
+                out.explained_points = out.explained_points.saturating_add(u16::from(explained));
+                r.checked = r.checked.saturating_add(1);
+                r.explained = r.explained.saturating_add(u16::from(explained));
+            }
+            k += 1;
+        }
+        out.close(run, config);
+        out
+    }
+
+    /// Ends `run`: counts its verdict.
+    fn close(&mut self, run: Option<Run>, config: &IntegrityConfig) {
+        let Some(r) = run.filter(|r| r.points >= config.min_cluster_points && r.checked > 0) else {
+            return;
+        };
+        self.clusters = self.clusters.saturating_add(1);
+        if f32::from(r.explained) >= config.cluster_explained_fraction * f32::from(r.checked) {
+            self.clusters_explained = self.clusters_explained.saturating_add(1);
+        }
+    }
+
+    /// The share of clusters explained, `None` without clusters.
+    pub fn cluster_fraction(&self) -> Option<f32> {
+        (self.clusters > 0).then(|| f32::from(self.clusters_explained) / f32::from(self.clusters))
+    }
+}
+
+/// The running share of landmark clusters the map explained over the recent scans (an
+/// exponential average weighted by each scan's clusters), and whether the map is trusted
+/// (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IntegrityMonitor {
+    explained: f32,
+    clusters: f32,
+    distrusted: bool,
+    /// The first scan with two landmarks or more has been judged.
+    started: bool,
+    /// Odometer reading where the current run of fitting scans began (while distrusted).
+    confirm_from_m: Option<f32>,
+}
+
+impl IntegrityMonitor {
+    /// Adds a scan's [`Integrity`]; `odometer_m` is the distance driven so far (any origin),
+    /// metres. Returns whether the scan's pose may be trusted: the map is trusted after it,
+    /// and the scan's own landmarks do not mostly misfit.
+    pub fn observe(
+        &mut self,
+        integrity: &Integrity,
+        odometer_m: f32,
+        config: &IntegrityConfig,
+    ) -> bool {
+        if integrity.clusters > 0 {
+            let w = config.window_weight.clamp(f32::MIN_POSITIVE, 1.0);
+            // The first verdict starts the average (no bias towards an empty history).
+            let keep = if self.clusters > 0.0 { 1.0 - w } else { 0.0 };
+            self.explained = keep * self.explained + w * f32::from(integrity.clusters_explained);
+            self.clusters = keep * self.clusters + w * f32::from(integrity.clusters);
+        }
+        let recent_ok = self
+            .recent_fraction()
+            .is_none_or(|f| f >= config.min_recent_fraction);
+        // The first scan with two landmarks or more must fit whole, or the map must be
+        // confirmed over distance first: an initial pose off by about a landmark's width can
+        // lock onto the wrong landmarks, which then fit only in part.
+        if !self.started && integrity.clusters >= 2 {
+            self.started = true;
+            if integrity.clusters_explained < integrity.clusters {
+                self.distrusted = true;
+                self.confirm_from_m = None;
+                return false;
+            }
+        }
+        // One scan whose landmarks mostly misfit is not trusted on its own either.
+        let scan_ok = integrity.clusters < 2
+            || f32::from(integrity.clusters_explained)
+                >= config.min_scan_fraction * f32::from(integrity.clusters);
+        if !self.distrusted {
+            if !recent_ok {
+                self.distrusted = true;
+                self.confirm_from_m = None;
+            }
+            return !self.distrusted && scan_ok;
+        }
+        let fits = integrity.clusters >= 2
+            && f32::from(integrity.clusters_explained)
+                >= config.confirm_scan_fraction * f32::from(integrity.clusters);
+        if recent_ok && fits {
+            let from = *self.confirm_from_m.get_or_insert(odometer_m);
+            if odometer_m - from >= config.confirm_distance_m {
+                self.distrusted = false;
+                self.confirm_from_m = None;
+            }
+        } else if integrity.clusters > 0 {
+            // A scan that does not fit restarts the confirmation.
+            self.confirm_from_m = None;
+        }
+        !self.distrusted
+    }
+
+    /// The recent share of clusters explained, `None` before the first scan with one.
+    pub fn recent_fraction(&self) -> Option<f32> {
+        (self.clusters > 0.0).then(|| self.explained / self.clusters)
+    }
+
+    /// Whether the map is trusted.
+    pub fn is_trusted(&self) -> bool {
+        !self.distrusted
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(clusters: u8, explained: u8) -> Integrity {
+        Integrity {
+            clusters,
+            clusters_explained: explained,
+            ..Integrity::default()
+        }
+    }
+
+    /// Feeds scans 4 cm apart.
+    struct Drive {
+        monitor: IntegrityMonitor,
+        odometer_m: f32,
+        config: IntegrityConfig,
+    }
+
+    impl Drive {
+        fn new() -> Self {
+            Self {
+                monitor: IntegrityMonitor::default(),
+                odometer_m: 0.0,
+                config: IntegrityConfig::default(),
+            }
+        }
+
+        fn scan(&mut self, clusters: u8, explained: u8) -> bool {
+            self.odometer_m += 0.04;
+            self.monitor
+                .observe(&scan(clusters, explained), self.odometer_m, &self.config)
+        }
+    }
+
+    #[test]
+    fn a_damaged_landmark_passes_but_a_run_of_misfits_loses_trust_for_metres() {
+        let mut d = Drive::new();
+        // Nothing to judge yet: trusted, no share.
+        assert!(d.scan(0, 0) && d.monitor.recent_fraction().is_none());
+        for _ in 0..50 {
+            assert!(d.scan(3, 3));
+        }
+        // A damaged landmark in view for a while: one of three unexplained.
+        for _ in 0..10 {
+            assert!(d.scan(3, 2));
+        }
+        // One scan whose landmarks mostly misfit is not trusted, the map still is.
+        assert!(!d.scan(4, 1));
+        assert!(d.monitor.is_trusted());
+        // Scan after scan of that: the share sinks and the map loses trust.
+        let lost_after = (0..40).position(|_| {
+            d.scan(3, 1);
+            !d.monitor.is_trusted()
+        });
+        assert!(matches!(lost_after, Some(1..=20)), "{lost_after:?}");
+        // Fitting scans restore it only after 3 m; a misfit on the way restarts the count,
+        // single-landmark scans neither count nor reset it.
+        let restored_at = (0..400).position(|k| match k {
+            30 => d.scan(3, 0),
+            40..=60 => d.scan(1, 1),
+            _ => d.scan(3, 3),
+        });
+        // From scan 31 on the count runs: 3 m = 75 scans of 4 cm.
+        assert!(
+            restored_at.expect("trust restored") >= 31 + 75,
+            "{restored_at:?}"
+        );
+        // No clusters: the share does not move.
+        let before = d.monitor.recent_fraction();
+        assert!(d.scan(0, 0));
+        assert_eq!(d.monitor.recent_fraction(), before);
+    }
+
+    #[test]
+    fn a_first_scan_that_fits_only_in_part_is_not_trusted_until_confirmed() {
+        // Single landmarks do not decide; the first scan with two does.
+        let mut d = Drive::new();
+        assert!(d.scan(1, 1));
+        assert!(!d.scan(4, 3));
+        let confirmed_at = (0..200).position(|_| d.scan(3, 3));
+        assert!(confirmed_at.expect("confirmed") >= 74, "{confirmed_at:?}");
+        // A first scan that fits whole is trusted at once.
+        let mut d = Drive::new();
+        assert!(d.scan(2, 2));
+    }
+}
