@@ -323,6 +323,13 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
                 .map(|d| format!("scanner recording: {d}")),
         )
         .collect();
+    if recorded.bad_frames > 0 || recorded.garbage_bytes > 0 {
+        warnings.push(format!(
+            "scanner recording: {} damaged frames dropped and {} bytes outside any telegram skipped (the framer resynchronised on the next start marker)",
+            recorded.bad_frames, recorded.garbage_bytes
+        ));
+    }
+    warnings.extend(coverage_warning(odometry, &recorded.scans));
     let truth = match &sources.ground_truth {
         Some(p) => Some(truth_csv::read(p)?),
         None => None,
@@ -413,6 +420,29 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         source,
         map,
         warnings,
+    })
+}
+
+/// Says so when scans come before the first or after the last odometry reading (by more
+/// than two reading intervals): those are coasted across, with growing uncertainty.
+fn coverage_warning(
+    odometry: &[crate::vehicle::odometry::OdometrySample],
+    scans: &[crate::lidar::LidarScan],
+) -> Option<String> {
+    let (first, last) = (odometry.first()?, odometry.last()?);
+    let (s0, s1) = (scans.first()?.t_s, scans.last()?.t_s);
+    let slack = 2.0 * last.dt_s;
+    let after = scans.iter().filter(|s| s.t_s > last.t_s + slack).count();
+    let before = scans
+        .iter()
+        .filter(|s| s.t_s < first.t_s - first.dt_s - slack)
+        .count();
+    (after + before > 0).then(|| {
+        format!(
+            "odometry covers t = {:.3}…{:.3} s, the scans t = {s0:.3}…{s1:.3} s: {before} scans before it and {after} after it are localised without odometry (coasted on the last speed, with growing uncertainty)",
+            first.t_s - first.dt_s,
+            last.t_s
+        )
     })
 }
 

@@ -49,6 +49,8 @@ pub struct RecordedScans {
     pub other_frames: usize,
     /// Frames the framer dropped (bad checksum, bad length, truncated).
     pub bad_frames: usize,
+    /// Bytes outside any frame the framer skipped (noise, the bytes of dropped frames).
+    pub garbage_bytes: u64,
     /// Scan telegrams dropped because they are damaged (the others were kept).
     pub damaged: Vec<DamagedScan>,
     /// Damaged parts of the file that were read around (pcap / pcapng / JSON).
@@ -273,6 +275,7 @@ pub fn read_scans(path: &Path, sidecar: Option<&Path>) -> Result<RecordedScans, 
         time_source,
         other_frames,
         bad_frames: frames.errors.len(),
+        garbage_bytes: frames.stats.garbage_bytes,
         damaged,
         file_damage: rec.damage.clone(),
     })
