@@ -5,7 +5,10 @@
 //! cells (compressed-row storage); a ray walks the cells it crosses in order
 //! (Amanatides–Woo traversal) and stops in the first cell that holds a hit inside that
 //! cell, so its cost grows with the ray's length, not with the map's size. World frame,
-//! metres, `f64`.
+//! metres, `f64`. A bounding box mostly empty (a long tunnel far off the axes) indexes only
+//! its occupied cells, so memory follows the segments, not the area.
+
+use std::collections::HashMap;
 
 /// What a true-geometry segment belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,9 +52,37 @@ pub struct SegmentGrid {
     cell_m: f64,
     nx: usize,
     ny: usize,
-    /// `cell_start[c]..cell_start[c + 1]` indexes `cell_items` for cell `c = iy * nx + ix`.
-    cell_start: Vec<u32>,
+    /// Where each cell's segments lie in `cell_items` (cell `c = iy * nx + ix`).
+    cells: CellIndex,
     cell_items: Vec<u32>,
+}
+
+/// Grids with more cells than this over their bounding box index only their occupied
+/// cells (4 Mi cells: 16 MiB dense).
+const MAX_DENSE_CELLS: u64 = 1 << 22;
+
+/// The cells' ranges of `cell_items`.
+#[derive(Debug, Clone)]
+enum CellIndex {
+    /// `start[c]..start[c + 1]` for every cell of the bounding box.
+    Dense(Vec<u32>),
+    /// `(start, end)` of the occupied cells only.
+    Sparse(HashMap<u64, (u32, u32)>),
+}
+
+impl CellIndex {
+    fn range(&self, c: u64) -> std::ops::Range<usize> {
+        match self {
+            CellIndex::Dense(start) => {
+                let c = c as usize;
+                match (start.get(c), start.get(c + 1)) {
+                    (Some(&a), Some(&b)) => a as usize..b as usize,
+                    _ => 0..0,
+                }
+            }
+            CellIndex::Sparse(map) => map.get(&c).map_or(0..0, |&(a, b)| a as usize..b as usize),
+        }
+    }
 }
 
 impl SegmentGrid {
@@ -91,31 +122,52 @@ impl SegmentGrid {
             cell_m,
             nx,
             ny,
-            cell_start: Vec::new(),
+            cells: CellIndex::Dense(Vec::new()),
             cell_items: Vec::new(),
         };
-        // Two passes: count, then fill (compressed rows).
-        let mut counts = vec![0u32; nx * ny + 1];
-        for i in 0..grid.segments.len() {
-            grid.for_cells_of_segment(i, |c| counts[c] += 1);
+        let cells = nx as u64 * ny as u64;
+        if cells <= MAX_DENSE_CELLS {
+            // Two passes: count, then fill (compressed rows).
+            let n = cells as usize;
+            let mut counts = vec![0u32; n + 1];
+            for i in 0..grid.segments.len() {
+                grid.for_cells_of_segment(i, |c| counts[c as usize] += 1);
+            }
+            let mut start = vec![0u32; n + 1];
+            let mut acc = 0u32;
+            for (c, k) in counts.iter().enumerate().take(n) {
+                start[c] = acc;
+                acc += k;
+            }
+            start[n] = acc;
+            let mut fill = start.clone();
+            let mut items = vec![0u32; acc as usize];
+            for i in 0..grid.segments.len() {
+                grid.for_cells_of_segment(i, |c| {
+                    items[fill[c as usize] as usize] = i as u32;
+                    fill[c as usize] += 1;
+                });
+            }
+            grid.cells = CellIndex::Dense(start);
+            grid.cell_items = items;
+        } else {
+            // A bounding box mostly empty (a long tunnel far off the axes): only the cells
+            // that hold segments, memory in proportion to the segments.
+            let mut pairs: Vec<(u64, u32)> = Vec::new();
+            for i in 0..grid.segments.len() {
+                grid.for_cells_of_segment(i, |c| pairs.push((c, i as u32)));
+            }
+            pairs.sort_unstable();
+            let mut map = HashMap::new();
+            let mut k = 0usize;
+            while let Some(&(c, _)) = pairs.get(k) {
+                let end = k + pairs[k..].partition_point(|p| p.0 == c);
+                map.insert(c, (k as u32, end as u32));
+                k = end;
+            }
+            grid.cell_items = pairs.into_iter().map(|(_, i)| i).collect();
+            grid.cells = CellIndex::Sparse(map);
         }
-        let mut start = vec![0u32; nx * ny + 1];
-        let mut acc = 0u32;
-        for (c, n) in counts.iter().enumerate().take(nx * ny) {
-            start[c] = acc;
-            acc += n;
-        }
-        start[nx * ny] = acc;
-        let mut fill = start.clone();
-        let mut items = vec![0u32; acc as usize];
-        for i in 0..grid.segments.len() {
-            grid.for_cells_of_segment(i, |c| {
-                items[fill[c] as usize] = i as u32;
-                fill[c] += 1;
-            });
-        }
-        grid.cell_start = start;
-        grid.cell_items = items;
         grid
     }
 
@@ -133,13 +185,13 @@ impl SegmentGrid {
 
     /// Calls `f` with every cell the segment's bounding box touches (segments are short
     /// compared with cells, so the box is a tight cover).
-    fn for_cells_of_segment(&self, i: usize, mut f: impl FnMut(usize)) {
+    fn for_cells_of_segment(&self, i: usize, mut f: impl FnMut(u64)) {
         let s = self.segments[i];
         let (ax, ay) = self.cell_of(s.a.0.min(s.b.0), s.a.1.min(s.b.1));
         let (bx, by) = self.cell_of(s.a.0.max(s.b.0), s.a.1.max(s.b.1));
         for iy in ay.max(0)..=by.min(self.ny as i64 - 1) {
             for ix in ax.max(0)..=bx.min(self.nx as i64 - 1) {
-                f(iy as usize * self.nx + ix as usize);
+                f(iy as u64 * self.nx as u64 + ix as u64);
             }
         }
     }
@@ -182,9 +234,8 @@ impl SegmentGrid {
         loop {
             let t_exit = t_max_x.min(t_max_y);
             if ix >= 0 && iy >= 0 && (ix as usize) < self.nx && (iy as usize) < self.ny {
-                let c = iy as usize * self.nx + ix as usize;
-                let items =
-                    &self.cell_items[self.cell_start[c] as usize..self.cell_start[c + 1] as usize];
+                let c = iy as u64 * self.nx as u64 + ix as u64;
+                let items = self.cell_items.get(self.cells.range(c)).unwrap_or_default();
                 let mut best: Option<Hit> = None;
                 for &k in items {
                     let s = &self.segments[k as usize];
@@ -323,5 +374,37 @@ mod tests {
         assert!(SegmentGrid::new(Vec::new(), 1.0)
             .cast((0.0, 0.0), 0.3, 80.0)
             .is_none());
+    }
+
+    /// Segments spread over a 10 000 km box (10¹⁶ cells of 1 m, dense) are indexed sparsely
+    /// and give the brute force's answers.
+    #[test]
+    fn a_huge_empty_box_is_indexed_sparsely() {
+        let mut rng = Pcg32::seeded(5);
+        let mut segments = random_segments(500, &mut rng);
+        for s in random_segments(500, &mut rng) {
+            let far = |p: (f64, f64)| (p.0 + 1.0e7, p.1 + 1.0e7);
+            segments.push(WorldSegment {
+                a: far(s.a),
+                b: far(s.b),
+                ..s
+            });
+        }
+        let grid = SegmentGrid::new(segments, 1.0);
+        assert!(matches!(grid.cells, CellIndex::Sparse(_)));
+        for base in [(0.0, 0.0), (1.0e7, 1.0e7)] {
+            for _ in 0..500 {
+                let o = (
+                    base.0 + f64::from(rng.uniform(-60.0, 60.0)),
+                    base.1 + f64::from(rng.uniform(-25.0, 25.0)),
+                );
+                let ang = f64::from(rng.uniform(-4.0, 4.0));
+                match (grid.cast(o, ang, 80.0), grid.cast_brute_force(o, ang, 80.0)) {
+                    (None, None) => {}
+                    (Some(f), Some(s)) => assert!((f.range_m - s.range_m).abs() < 1e-6),
+                    other => panic!("mismatch from {o:?} at {ang}: {other:?}"),
+                }
+            }
+        }
     }
 }

@@ -33,6 +33,7 @@ use crate::vehicle::odometry::OdometrySpec;
 use crate::vehicle::path_follower::DriveSpec;
 use crate::vehicle::skid_steer::SkidSteerSpec;
 use crate::world::centerline::{CenterLine, CurvePiece};
+use crate::world::centerline_check;
 use crate::world::layout::{Damage, DamageKind, LayoutSpec, Omission, WallChoice};
 use crate::world::{TunnelSpec, World};
 
@@ -286,6 +287,17 @@ pub enum ScenarioError {
         /// What is wrong and what is allowed.
         reason: String,
     },
+    /// A value of a scenario file is out of its range.
+    InvalidAt {
+        /// The file.
+        path: PathBuf,
+        /// The line of the key.
+        line: usize,
+        /// Dotted key.
+        key: &'static str,
+        /// What is wrong and what is allowed.
+        reason: String,
+    },
     /// The landmark model or genes are wrong.
     Landmarks(LandmarkChoiceError),
     /// No scenario of that name.
@@ -302,6 +314,16 @@ impl fmt::Display for ScenarioError {
                 write!(f, "scenario {} is not valid: {message}", path.display())
             }
             ScenarioError::Invalid { key, reason } => write!(f, "scenario key `{key}`: {reason}"),
+            ScenarioError::InvalidAt {
+                path,
+                line,
+                key,
+                reason,
+            } => write!(
+                f,
+                "scenario {} line {line}, key `{key}`: {reason}",
+                path.display()
+            ),
             ScenarioError::Landmarks(e) => write!(f, "scenario key `landmarks`: {e}"),
             ScenarioError::UnknownName(n) => write!(
                 f,
@@ -318,6 +340,30 @@ impl From<LandmarkChoiceError> for ScenarioError {
     fn from(e: LandmarkChoiceError) -> Self {
         ScenarioError::Landmarks(e)
     }
+}
+
+/// The line (1-based) of a dotted key in TOML text: `tunnel.width_m` is `width_m` under
+/// `[tunnel]`, `tunnel.pieces.length_m` the `pieces` line there, `seed` a top-level key.
+fn line_of_key(text: &str, dotted: &str) -> Option<usize> {
+    let mut parts = dotted.split('.');
+    let (table, field) = match (parts.next(), parts.next()) {
+        (Some(t), Some(f)) => (t, f),
+        (Some(f), None) => ("", f),
+        _ => return None,
+    };
+    let mut current = "";
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix('[').and_then(|r| r.split(']').next()) {
+            current = name.trim();
+            continue;
+        }
+        let key = t.split('=').next().unwrap_or("").trim();
+        if current == table && key == field && t.contains('=') {
+            return Some(i + 1);
+        }
+    }
+    None
 }
 
 fn check(ok: bool, key: &'static str, reason: &str) -> Result<(), ScenarioError> {
@@ -338,14 +384,26 @@ impl Scenario {
             path: path.to_path_buf(),
             source,
         })?;
-        let mut s = Self::from_toml(&text).map_err(|e| match e {
+        let at_line = |e| match e {
             ScenarioError::Parse { message, .. } => ScenarioError::Parse {
                 path: path.to_path_buf(),
                 message,
             },
+            ScenarioError::Invalid { key, reason } => match line_of_key(&text, key) {
+                Some(line) => ScenarioError::InvalidAt {
+                    path: path.to_path_buf(),
+                    line,
+                    key,
+                    reason,
+                },
+                None => ScenarioError::Invalid { key, reason },
+            },
             other => other,
-        })?;
+        };
+        let mut s = Self::from_toml(&text).map_err(at_line)?;
         s.base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        // The centre line's geometry too, before any simulation.
+        s.centerline().map_err(at_line)?;
         Ok(s)
     }
 
@@ -422,7 +480,27 @@ impl Scenario {
             }
         }
         let l = &self.landmarks;
-        LandmarkChoice::parse(&l.model, l.genes.as_deref())?;
+        let choice = LandmarkChoice::parse(&l.model, l.genes.as_deref())?;
+        // Spacing draws U[D − 0.625, D + 0.625]: the nearest neighbour's base must clear
+        // this landmark's.
+        let profile = choice.profile();
+        let (lo, hi) = profile
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.0), hi.max(p.0))
+            });
+        let width_m = hi - lo;
+        let closest_m = choice.spacing_m() - crate::world::layout::SPACING_JITTER_M;
+        check(
+            profile.is_empty() || width_m < closest_m,
+            "landmarks.genes",
+            &format!(
+                "landmarks {width_m:.3} m wide at a spacing D = {:.3} m (neighbours as close as D − {} m = {closest_m:.3} m) overlap their neighbours: make D at least {:.3} m",
+                choice.spacing_m(),
+                crate::world::layout::SPACING_JITTER_M,
+                width_m + crate::world::layout::SPACING_JITTER_M
+            ),
+        )?;
         check(
             l.first_m.is_finite(),
             "landmarks.first_m",
@@ -564,18 +642,52 @@ impl Scenario {
         )?)
     }
 
-    /// The centre line (reads the CSV file if the scenario names one).
+    /// The centre line (reads the CSV file if the scenario names one), checked: a tunnel of
+    /// the scenario's width can follow it ([`centerline_check`]), and the drive stays on it.
     pub fn centerline(&self) -> Result<CenterLine, ScenarioError> {
+        let (line, key) = self.unchecked_centerline()?;
+        centerline_check::check(&line, self.tunnel.width_m).map_err(|e| {
+            ScenarioError::Invalid {
+                key,
+                reason: e.to_string(),
+            }
+        })?;
+        let length_m = line.length_m();
+        let d = &self.drive;
+        check(
+            d.start_m < length_m,
+            "drive.start_m",
+            &format!(
+                "the drive starts at chainage {} m, past the tunnel's end ({length_m:.2} m)",
+                d.start_m
+            ),
+        )?;
+        check(
+            d.end_m.is_infinite() || d.end_m <= length_m + 1e-6,
+            "drive.end_m",
+            &format!(
+                "the drive ends at chainage {} m, past the tunnel's end ({length_m:.2} m): drive at most {:.2} m from drive.start_m (--length), or leave drive.end_m out to drive to the end",
+                d.end_m,
+                length_m - d.start_m
+            ),
+        )?;
+        Ok(line)
+    }
+
+    /// The centre line as given, and the key it came from.
+    fn unchecked_centerline(&self) -> Result<(CenterLine, &'static str), ScenarioError> {
         if let Some(csv) = &self.tunnel.csv {
             let path = self.base_dir.join(csv);
             let text = std::fs::read_to_string(&path).map_err(|source| ScenarioError::Io {
                 path: path.clone(),
                 source,
             })?;
-            return CenterLine::parse_csv(&text).map_err(|e| ScenarioError::Invalid {
-                key: "tunnel.csv",
-                reason: e.to_string(),
-            });
+            return CenterLine::parse_csv(&text)
+                .map(|l| (l, "tunnel.csv"))
+                .map_err(|e| ScenarioError::Invalid {
+                    key: "tunnel.csv",
+                    reason: format!("{}: {e}", path.display()),
+                });
         }
         let pieces: Vec<CurvePiece> = self
             .tunnel
@@ -586,10 +698,12 @@ impl Scenario {
                 curvature_per_m: p.radius_m.map_or(0.0, |r| 1.0 / r),
             })
             .collect();
-        CenterLine::from_pieces(&pieces).map_err(|e| ScenarioError::Invalid {
-            key: "tunnel.pieces",
-            reason: e.to_string(),
-        })
+        CenterLine::from_pieces(&pieces)
+            .map(|l| (l, "tunnel.pieces"))
+            .map_err(|e| ScenarioError::Invalid {
+                key: "tunnel.pieces",
+                reason: e.to_string(),
+            })
     }
 
     /// Builds the world (true geometry and design) from the scenario's seed.
@@ -699,6 +813,74 @@ cruise_speed_mps = 2.0
         let bad = GOOD.replace("width_m = 4.0", "width_m = \"wide\"");
         let e = Scenario::from_toml(&bad).unwrap_err().to_string();
         assert!(e.contains("line 5") && e.contains("width_m"), "{e}");
+    }
+
+    /// Impossible geometry is refused before any simulation, naming the line of the file:
+    /// the TOML key's, or the CSV point's.
+    #[test]
+    fn impossible_geometry_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, text: &str| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, text).unwrap();
+            p
+        };
+        let refused = |text: &str| {
+            Scenario::from_file(&write("s.toml", text))
+                .unwrap_err()
+                .to_string()
+        };
+        // A 6 m bend in a 20 m wide tunnel.
+        let e = refused(
+            "name = \"x\"\n[tunnel]\nwidth_m = 20.0\npieces = [ { length_m = 20.0 }, { length_m = 15.0, radius_m = 6.0 }, { length_m = 20.0 } ]\n",
+        );
+        assert!(
+            e.contains("line 4") && e.contains("tighter than half"),
+            "{e}"
+        );
+        // A survey that turns back at its fourth point (line 5 of the CSV).
+        write("spike.csv", "x,y\n0,0\n10,0\n20,0\n15,0\n30,0\n40,0\n");
+        let e = refused("[tunnel]\ncsv = \"spike.csv\"\n");
+        assert!(e.contains("CSV line 4") && e.contains("turns back"), "{e}");
+        // A loop closed twice.
+        let circle: String = (0..=80)
+            .map(|k| {
+                let a = f64::from(k) * std::f64::consts::TAU / 72.0;
+                format!("{},{}\n", 30.0 * a.sin(), 30.0 - 30.0 * a.cos())
+            })
+            .collect();
+        write("loop.csv", &circle);
+        let e = refused("[tunnel]\ncsv = \"loop.csv\"\n");
+        assert!(e.contains("walls would cross"), "{e}");
+        // A drive past the end of the tunnel.
+        let e = refused(
+            "[tunnel]\npieces = [ { length_m = 50.0 } ]\n[drive]\nstart_m = 5.0\nend_m = 80.0\n",
+        );
+        assert!(
+            e.contains("line 5") && e.contains("past the tunnel's end"),
+            "{e}"
+        );
+        // Landmarks wider than their closest spacing.
+        let e = refused(
+            "[tunnel]\npieces = [ { length_m = 50.0 } ]\n[landmarks]\nmodel = \"f4\"\ngenes = [1.5, 0.2, 1.25, 1, 1, 1, 1, 1, 1]\n",
+        );
+        assert!(
+            e.contains("line 5") && e.contains("overlap their neighbours"),
+            "{e}"
+        );
+        // --length past the end is refused, not clipped.
+        let mut s = named::named("paper-10m").unwrap();
+        overrides::Overrides {
+            drive_length_m: Some(5000.0),
+            ..overrides::Overrides::default()
+        }
+        .apply(&mut s)
+        .unwrap();
+        let e = s.build_world().unwrap_err().to_string();
+        assert!(
+            e.contains("drive.end_m") && e.contains("past the tunnel's end"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -11,6 +11,13 @@ use std::fmt;
 /// Spacing of the stored samples along the curve, metres.
 pub const SAMPLE_STEP_M: f64 = 0.05;
 
+/// Longest centre line accepted, metres (a survey in millimetres read as metres is 1000×
+/// too long; a longer drive is split into sections).
+pub const MAX_LENGTH_M: f64 = 100_000.0;
+
+/// Largest coordinate accepted, metres (UTM northings are below 10 000 km).
+pub const MAX_COORDINATE_M: f64 = 1.0e7;
+
 /// One piece of a centre line: a length with constant curvature.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CurvePiece {
@@ -48,6 +55,18 @@ pub enum CenterLineError {
         /// Index of the point in the list.
         index: usize,
     },
+    /// A surveyed point lies beyond ±[`MAX_COORDINATE_M`].
+    OutOfRange {
+        /// Index of the point in the list.
+        index: usize,
+        /// Its larger coordinate's magnitude, metres.
+        coordinate_m: f64,
+    },
+    /// The line is longer than [`MAX_LENGTH_M`].
+    TooLong {
+        /// Its length (or the length reached when it passed the limit), metres.
+        length_m: f64,
+    },
 }
 
 impl fmt::Display for CenterLineError {
@@ -64,6 +83,19 @@ impl fmt::Display for CenterLineError {
             CenterLineError::BadPoint { index } => {
                 write!(f, "centre-line point {index} is not a finite x,y pair")
             }
+            CenterLineError::OutOfRange {
+                index,
+                coordinate_m,
+            } => write!(
+                f,
+                "centre-line point {index} lies {coordinate_m:.3e} m from the origin, beyond {MAX_COORDINATE_M:.0e} m: give coordinates in metres in a local or projected (e.g. UTM) frame"
+            ),
+            CenterLineError::TooLong { length_m } => write!(
+                f,
+                "the centre line reaches {:.4e} km, longer than {} km: is the survey in millimetres? (give metres) A longer drive is split into sections",
+                length_m / 1000.0,
+                MAX_LENGTH_M / 1000.0
+            ),
         }
     }
 }
@@ -76,6 +108,8 @@ impl std::error::Error for CenterLineError {}
 #[derive(Debug, Clone)]
 pub struct CenterLine {
     samples: Vec<CenterSample>,
+    /// The CSV line of each sample's point (empty when the line does not come from a CSV).
+    lines: Vec<usize>,
 }
 
 /// Where a world point lies relative to the centre line.
@@ -90,16 +124,24 @@ pub struct Projection {
 impl CenterLine {
     /// Integrates constant-curvature pieces from the origin, heading +x.
     pub fn from_pieces(pieces: &[CurvePiece]) -> Result<Self, CenterLineError> {
+        // The length decides the allocation: bound it first.
+        let mut total_m = 0.0;
+        for (index, p) in pieces.iter().enumerate() {
+            if !(p.length_m.is_finite() && p.length_m > 0.0 && p.curvature_per_m.is_finite()) {
+                return Err(CenterLineError::BadPiece { index });
+            }
+            total_m += p.length_m;
+            if total_m > MAX_LENGTH_M {
+                return Err(CenterLineError::TooLong { length_m: total_m });
+            }
+        }
         let mut samples = vec![CenterSample {
             s_m: 0.0,
             x_m: 0.0,
             y_m: 0.0,
             heading_rad: 0.0,
         }];
-        for (index, p) in pieces.iter().enumerate() {
-            if !(p.length_m.is_finite() && p.length_m > 0.0 && p.curvature_per_m.is_finite()) {
-                return Err(CenterLineError::BadPiece { index });
-            }
+        for p in pieces {
             let n = (p.length_m / SAMPLE_STEP_M).ceil().max(1.0) as usize;
             let ds = p.length_m / n as f64;
             for _ in 0..n {
@@ -124,16 +166,32 @@ impl CenterLine {
         if samples.len() < 2 {
             return Err(CenterLineError::TooShort);
         }
-        Ok(Self { samples })
+        Ok(Self {
+            samples,
+            lines: Vec::new(),
+        })
     }
 
     /// A centre line through surveyed points (world x, y in metres), in order. Consecutive
     /// duplicates are dropped; headings are the chord directions, unwrapped.
     pub fn from_points(points: &[(f64, f64)]) -> Result<Self, CenterLineError> {
+        Self::from_points_kept(points).map(|(line, _)| line)
+    }
+
+    /// [`CenterLine::from_points`], with the index of each sample's point.
+    fn from_points_kept(points: &[(f64, f64)]) -> Result<(Self, Vec<usize>), CenterLineError> {
         let mut samples: Vec<CenterSample> = Vec::with_capacity(points.len());
+        let mut kept = Vec::with_capacity(points.len());
         for (index, &(x, y)) in points.iter().enumerate() {
             if !(x.is_finite() && y.is_finite()) {
                 return Err(CenterLineError::BadPoint { index });
+            }
+            let coordinate_m = x.abs().max(y.abs());
+            if coordinate_m > MAX_COORDINATE_M {
+                return Err(CenterLineError::OutOfRange {
+                    index,
+                    coordinate_m,
+                });
             }
             match samples.last() {
                 None => samples.push(CenterSample {
@@ -147,14 +205,19 @@ impl CenterLine {
                     if d < 1e-9 {
                         continue;
                     }
+                    let s_m = last.s_m + d;
+                    if s_m > MAX_LENGTH_M {
+                        return Err(CenterLineError::TooLong { length_m: s_m });
+                    }
                     samples.push(CenterSample {
-                        s_m: last.s_m + d,
+                        s_m,
                         x_m: x,
                         y_m: y,
                         heading_rad: 0.0,
                     });
                 }
             }
+            kept.push(index);
         }
         if samples.len() < 2 {
             return Err(CenterLineError::TooShort);
@@ -177,13 +240,20 @@ impl CenterLine {
             samples[i].heading_rad = h;
             prev = h;
         }
-        Ok(Self { samples })
+        Ok((
+            Self {
+                samples,
+                lines: Vec::new(),
+            },
+            kept,
+        ))
     }
 
     /// Reads a centre line from CSV text: one `x,y` pair per line in metres; blank lines,
     /// `#` comments and a non-numeric header line are skipped.
     pub fn parse_csv(text: &str) -> Result<Self, CsvCenterLineError> {
         let mut pts = Vec::new();
+        let mut pt_lines = Vec::new();
         for (i, line) in text.lines().enumerate() {
             let line_no = i + 1;
             let t = line.trim();
@@ -193,7 +263,10 @@ impl CenterLine {
             let mut fields = t.split([',', ';', '\t']).map(str::trim);
             let (fx, fy) = (fields.next().unwrap_or(""), fields.next().unwrap_or(""));
             match (fx.parse::<f64>(), fy.parse::<f64>()) {
-                (Ok(x), Ok(y)) => pts.push((x, y)),
+                (Ok(x), Ok(y)) => {
+                    pts.push((x, y));
+                    pt_lines.push(line_no);
+                }
                 _ if pts.is_empty() && fx.parse::<f64>().is_err() => continue, // header
                 _ => {
                     return Err(CsvCenterLineError::BadLine {
@@ -203,7 +276,26 @@ impl CenterLine {
                 }
             }
         }
-        Self::from_points(&pts).map_err(CsvCenterLineError::Geometry)
+        let at_line = |e: CenterLineError| match e {
+            CenterLineError::BadPoint { index } | CenterLineError::OutOfRange { index, .. } => {
+                CsvCenterLineError::AtLine {
+                    line: pt_lines.get(index).copied().unwrap_or(0),
+                    error: e,
+                }
+            }
+            _ => CsvCenterLineError::Geometry(e),
+        };
+        let (mut line, kept) = Self::from_points_kept(&pts).map_err(at_line)?;
+        line.lines = kept
+            .iter()
+            .map(|&k| pt_lines.get(k).copied().unwrap_or(0))
+            .collect();
+        Ok(line)
+    }
+
+    /// The CSV line of sample `index`'s point, when the line comes from a CSV.
+    pub fn source_line(&self, index: usize) -> Option<usize> {
+        self.lines.get(index).copied()
     }
 
     /// Total length, metres.
@@ -302,6 +394,13 @@ pub enum CsvCenterLineError {
     },
     /// The points do not make a usable line.
     Geometry(CenterLineError),
+    /// A point is unusable.
+    AtLine {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        error: CenterLineError,
+    },
 }
 
 impl fmt::Display for CsvCenterLineError {
@@ -312,6 +411,9 @@ impl fmt::Display for CsvCenterLineError {
                 "centre-line CSV line {line}: expected `x,y` in metres, found `{text}`"
             ),
             CsvCenterLineError::Geometry(e) => write!(f, "centre-line CSV: {e}"),
+            CsvCenterLineError::AtLine { line, error } => {
+                write!(f, "centre-line CSV line {line}: {error}")
+            }
         }
     }
 }
@@ -391,5 +493,29 @@ mod tests {
             CenterLine::from_pieces(&[]).unwrap_err(),
             CenterLineError::TooShort
         );
+    }
+
+    /// Inputs that would make the simulator allocate without bound are refused before any
+    /// sampling: a piece of 1e300 m, points at 1e308 m, a survey in millimetres.
+    #[test]
+    fn absurd_sizes_are_refused_before_allocating() {
+        let e = CenterLine::from_pieces(&[CurvePiece {
+            length_m: 1e300,
+            curvature_per_m: 0.0,
+        }])
+        .unwrap_err();
+        assert!(matches!(e, CenterLineError::TooLong { .. }), "{e}");
+        let e = CenterLine::parse_csv("x,y\n0,0\n1e308,0\n").unwrap_err();
+        assert!(e.to_string().contains("line 3"), "{e}");
+        assert!(e.to_string().contains("beyond"), "{e}");
+        // 400 m surveyed in millimetres: 400 km.
+        let mm: String = (0..=200).map(|k| format!("{},0\n", k * 2000)).collect();
+        let e = CenterLine::parse_csv(&mm).unwrap_err();
+        assert!(e.to_string().contains("millimetres"), "{e}");
+        // A real UTM survey is fine.
+        let utm: String = (0..=100)
+            .map(|k| format!("{},{}\n", 512_345.0 + f64::from(k) * 2.0, 7_034_567.0))
+            .collect();
+        assert!((CenterLine::parse_csv(&utm).unwrap().length_m() - 200.0).abs() < 1e-6);
     }
 }

@@ -10,6 +10,7 @@
 //! World frame, metres, radians, `f64`.
 
 pub mod centerline;
+pub mod centerline_check;
 pub mod layout;
 pub mod roughness;
 
@@ -221,6 +222,9 @@ impl Placement {
 
 /// Greedy polyline simplification: keeps a vertex only when skipping it would move some
 /// dropped point more than `tolerance_m` off the chord.
+/// Longest chord of a simplified wall, in points (1 km at the 0.1 m wall step).
+const MAX_CHORD_POINTS: usize = 10_000;
+
 fn simplify(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
     let Some(&first) = pts.first() else {
         return Vec::new();
@@ -235,9 +239,23 @@ fn simplify(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
             break;
         }
         let (a, b) = (pts[anchor], pts[candidate]);
-        let ok = pts[anchor + 1..candidate]
-            .iter()
-            .all(|&p| point_line_distance(p, a, b) <= tolerance_m);
+        // Each extension re-checks the whole chord: capping its span keeps a 100 km
+        // straight linear in its length (a vertex at least every MAX_CHORD_POINTS).
+        let ok = candidate - anchor <= MAX_CHORD_POINTS && {
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let len = dx.hypot(dy);
+            if len < 1e-12 {
+                pts[anchor + 1..candidate]
+                    .iter()
+                    .all(|&p| point_line_distance(p, a, b) <= tolerance_m)
+            } else {
+                // |cross| / len ≤ tol, without a square root per point.
+                let limit = tolerance_m * len;
+                pts[anchor + 1..candidate]
+                    .iter()
+                    .all(|&p| ((p.0 - a.0) * dy - (p.1 - a.1) * dx).abs() <= limit)
+            }
+        };
         if ok {
             i = candidate;
         } else {
