@@ -4,19 +4,25 @@
 //! [`Recording::frames`] frames every direction separately and classifies frames whose direction
 //! the file does not say (raw streams, JSON records) by command type: `sRN sWN sMN sEN` are host
 //! requests, everything else a sensor answer.
+//!
+//! [`RecordingReader`] and [`FrameReader`] do the same as streams, in memory bounded by the
+//! largest record whatever the file's size; [`Recording`] collects them.
 
 mod pcap;
 mod pcapng;
 mod sick_json;
+mod stream;
 mod tcp;
+mod window;
 
 use std::fmt;
 use std::path::Path;
 
+pub use stream::{FrameItem, FrameReader, RecordingReader};
 pub use tcp::{TcpStats, SICK_PORTS};
 
 use crate::frame::{Dialect, Frame, FrameError};
-use crate::framer::{Framer, FramerStats};
+use crate::framer::FramerStats;
 use crate::telegram::Telegram;
 
 /// Which way bytes went.
@@ -179,27 +185,13 @@ pub struct CapturedPacket {
 /// The packets of a pcap or pcapng file, in file order (no TCP processing); a damaged file
 /// is an error (`Recording::parse` reads around the damage instead).
 pub fn capture_packets(bytes: &[u8]) -> Result<Vec<CapturedPacket>, RecordingError> {
+    let mut reader = RecordingReader::new(bytes)?;
     let mut out = Vec::new();
-    let mut each = |p: &tcp::Packet<'_>| {
-        out.push(CapturedPacket {
-            time_s: p.time_s,
-            linktype: p.linktype,
-            data: p.data.to_vec(),
-        })
-    };
-    let mut damage = Vec::new();
-    match RecordingFormat::detect(bytes) {
-        RecordingFormat::Pcap => pcap::packets(bytes, &mut each, &mut damage)?,
-        RecordingFormat::Pcapng => pcapng::packets(bytes, &mut each, &mut damage)?,
-        _ => {
-            return Err(RecordingError::Capture {
-                offset: 0,
-                what: "not a pcap or pcapng file",
-            })
-        }
+    while let Some(p) = stream::next_packet(&mut reader)? {
+        out.push(p);
     }
     // This one gives the packets exactly or not at all: damage is an error here.
-    match damage.first() {
+    match reader.damage().first() {
         Some(d) => Err(RecordingError::Capture {
             offset: d.offset,
             what: d.what,
@@ -247,84 +239,41 @@ impl Recording {
 
     /// Parses recording bytes of any supported format.
     pub fn parse(bytes: &[u8]) -> Result<Self, RecordingError> {
-        let format = RecordingFormat::detect(bytes);
-        let mut damage = Vec::new();
-        let (chunks, tcp) = match format {
-            RecordingFormat::Raw => (
-                vec![Chunk {
-                    direction: Direction::Unknown,
-                    time_s: None,
-                    bytes: bytes.to_vec(),
-                }],
-                None,
-            ),
-            RecordingFormat::SickJson => (sick_json::chunks(bytes, &mut damage)?, None),
-            RecordingFormat::Pcap | RecordingFormat::Pcapng => {
-                let mut r = tcp::Reassembler::default();
-                if format == RecordingFormat::Pcap {
-                    pcap::packets(bytes, |p| r.push(p), &mut damage)?;
-                } else {
-                    pcapng::packets(bytes, |p| r.push(p), &mut damage)?;
-                }
-                let (c, s) = r.finish();
-                (c, Some(s))
-            }
-        };
+        let mut reader = RecordingReader::new(bytes)?;
+        let mut chunks = Vec::new();
+        while let Some(c) = reader.next_chunk()? {
+            chunks.push(c);
+        }
         Ok(Recording {
-            format,
+            format: reader.format(),
             chunks,
-            tcp,
-            damage,
+            tcp: reader.tcp_stats(),
+            damage: reader.damage().to_vec(),
         })
     }
 
     /// Frames every direction separately; frames of unknown direction are classified by type.
     pub fn frames(&self) -> RecordedFrames {
-        let dirs = [
-            Direction::HostToSensor,
-            Direction::SensorToHost,
-            Direction::Unknown,
-        ];
-        let mut framers: Vec<Framer<Vec<u8>>> = dirs
-            .iter()
-            .map(|_| Framer::new(vec![0u8; FRAMER_BUFFER_LEN]))
-            .collect();
+        let mut chunks = self.chunks.iter().cloned();
+        let mut reader = FrameReader::new(move || Ok(chunks.next()));
         let mut out = RecordedFrames::default();
-        let idx = |d: Direction| dirs.iter().position(|&x| x == d).unwrap_or(2);
-        for chunk in &self.chunks {
-            let Some(framer) = framers.get_mut(idx(chunk.direction)) else {
-                continue;
-            };
-            framer.feed(&chunk.bytes, |r| {
-                collect(&mut out, chunk.direction, chunk.time_s, r)
-            });
-        }
-        for (d, framer) in dirs.iter().zip(framers.iter_mut()) {
-            framer.finish();
-            while let Some(r) = framer.next_frame() {
-                collect(&mut out, *d, None, r);
+        while let Ok(Some(item)) = reader.next_frame() {
+            match item {
+                Ok(f) => out.frames.push(f),
+                Err(e) => out.errors.push(e),
             }
-            let s = framer.stats();
-            let t = &mut out.stats;
-            t.bytes_in += s.bytes_in;
-            t.garbage_bytes += s.garbage_bytes;
-            t.frames_cola_a += s.frames_cola_a;
-            t.frames_cola_b += s.frames_cola_b;
-            t.bad_checksum += s.bad_checksum;
-            t.bad_length += s.bad_length;
-            t.oversize += s.oversize;
-            t.truncated += s.truncated;
         }
+        out.stats = reader.stats();
         out
     }
 }
 
-fn collect(
-    out: &mut RecordedFrames,
+/// A framer's result as a recorded frame, the direction classified when unknown.
+fn collect_frame(
     dir: Direction,
     time_s: Option<f64>,
     r: Result<Frame<'_>, FrameError>,
-) {
+) -> FrameItem {
     match r {
         Ok(f) => {
             let direction = match dir {
@@ -335,13 +284,13 @@ fn collect(
                 },
                 d => d,
             };
-            out.frames.push(RecordedFrame {
+            Ok(RecordedFrame {
                 direction,
                 time_s,
                 dialect: f.dialect(),
                 bytes: f.as_bytes().to_vec(),
-            });
+            })
         }
-        Err(e) => out.errors.push((dir, e)),
+        Err(e) => Err((dir, e)),
     }
 }

@@ -1,7 +1,10 @@
-//! pcapng files (Wireshark's default): section, interface and packet blocks.
+//! pcapng files (Wireshark's default): section, interface and packet blocks, read one
+//! block at a time.
 
-use super::tcp::Packet;
-use super::RecordingError;
+use std::io::Read;
+
+use super::window::Window;
+use super::{CapturedPacket, RecordingDamage, RecordingError};
 
 /// Section header block type, also the file magic.
 const SHB: u32 = 0x0A0D_0D0A;
@@ -33,97 +36,149 @@ const KNOWN_BLOCKS: [u32; 7] = [
     ENHANCED_PACKET,
 ];
 
-/// Where the next intact block after a damaged one at `at` starts: the first 4-byte aligned
-/// offset whose type is a known block and whose leading and trailing lengths agree.
-fn resync(b: &[u8], at: usize, le: bool) -> Option<usize> {
-    let rd = |p: usize| -> Option<u32> {
-        let s: [u8; 4] = b.get(p..p + 4)?.try_into().ok()?;
-        Some(if le {
-            u32::from_le_bytes(s)
-        } else {
-            u32::from_be_bytes(s)
-        })
-    };
-    (at + 4..b.len()).step_by(4).find(|&p| {
-        let (Some(t), Some(len)) = (rd(p), rd(p + 4)) else {
-            return false;
-        };
-        let len = len as usize;
-        (KNOWN_BLOCKS.contains(&t) || rd(p) == Some(SHB))
-            && len >= 12
-            && len % 4 == 0
-            && p + len <= b.len()
-            && rd(p + len - 4) == Some(len as u32)
+/// Largest block accepted, bytes; a larger length field is damage.
+pub const MAX_BLOCK_BYTES: usize = 16 << 20;
+
+fn u32_of(s: &[u8], le: bool) -> Option<u32> {
+    let a: [u8; 4] = s.get(..4)?.try_into().ok()?;
+    Some(if le {
+        u32::from_le_bytes(a)
+    } else {
+        u32::from_be_bytes(a)
     })
 }
 
-/// Calls `each` for every packet of every section. A damaged block (a bad length, a cut,
-/// a packet naming no interface) is recorded in `damage` and skipped: reading resumes at the
-/// next intact block, so only the damaged packets are lost; a file cut short ends at its
-/// last complete block.
-pub(crate) fn packets(
-    b: &[u8],
-    mut each: impl FnMut(&Packet<'_>),
-    damage: &mut Vec<super::RecordingDamage>,
-) -> Result<(), RecordingError> {
-    let mut le = true;
-    let mut ifaces: Vec<Interface> = Vec::new();
-    let mut at = 0usize;
-    while at < b.len() {
-        match block(b, at, &mut le, &mut ifaces, &mut each) {
-            Ok(len) => at += len,
-            Err(what) => {
-                let next = resync(b, at, le);
-                damage.push(super::RecordingDamage {
-                    offset: at,
-                    what,
-                    skipped_bytes: next.unwrap_or(b.len()) - at,
-                });
-                match next {
-                    Some(p) => at = p,
-                    None => break,
+/// The state of a pcapng read: the section's byte order and its interfaces.
+pub(crate) struct PcapngReader {
+    le: bool,
+    ifaces: Vec<Interface>,
+}
+
+/// What the block at the window's start is.
+enum Block {
+    /// Intact, `len` bytes; a packet if it carried one.
+    Read(usize, Option<CapturedPacket>),
+    /// Damaged: what is wrong.
+    Damaged(&'static str),
+}
+
+impl PcapngReader {
+    pub fn new() -> Self {
+        Self {
+            le: true,
+            ifaces: Vec::new(),
+        }
+    }
+
+    /// The next packet of any section. A damaged block (a bad length, a cut, a packet
+    /// naming no interface) is recorded in `damage` and skipped: reading resumes at the
+    /// next intact block, so only the damaged packets are lost; a file cut short ends at
+    /// its last complete block.
+    pub fn next_packet<R: Read>(
+        &mut self,
+        w: &mut Window<R>,
+        damage: &mut Vec<RecordingDamage>,
+    ) -> Result<Option<CapturedPacket>, RecordingError> {
+        loop {
+            if w.at_end().map_err(RecordingError::Io)? {
+                return Ok(None);
+            }
+            match self.block(w).map_err(RecordingError::Io)? {
+                Block::Read(len, packet) => {
+                    w.consume(len);
+                    if packet.is_some() {
+                        return Ok(packet);
+                    }
+                }
+                Block::Damaged(what) => {
+                    let offset = w.offset();
+                    let skipped = self.resync(w).map_err(RecordingError::Io)?;
+                    damage.push(RecordingDamage {
+                        offset: offset as usize,
+                        what,
+                        skipped_bytes: skipped as usize,
+                    });
                 }
             }
         }
     }
-    Ok(())
+
+    /// The block's length if one intact block of a known type starts the window (its
+    /// leading and trailing lengths agree).
+    fn intact_len<R: Read>(&self, w: &mut Window<R>) -> std::io::Result<Option<usize>> {
+        let h = w.peek(8)?;
+        let (Some(raw), Some(t), Some(len)) = (
+            u32_of(h, true),
+            u32_of(h, self.le),
+            h.get(4..).and_then(|l| u32_of(l, self.le)),
+        ) else {
+            return Ok(None);
+        };
+        let len = len as usize;
+        if !(KNOWN_BLOCKS.contains(&t) || raw == SHB)
+            || len < 12
+            || len % 4 != 0
+            || len > MAX_BLOCK_BYTES
+        {
+            return Ok(None);
+        }
+        let b = w.peek(len)?;
+        let ok =
+            b.len() == len && b.get(len - 4..).and_then(|l| u32_of(l, self.le)) == Some(len as u32);
+        Ok(ok.then_some(len))
+    }
+
+    /// Skips to the next intact block (4-byte aligned), consuming as it goes so the window
+    /// stays small; returns the bytes skipped.
+    fn resync<R: Read>(&self, w: &mut Window<R>) -> std::io::Result<u64> {
+        let start = w.offset();
+        w.consume(4);
+        loop {
+            if w.at_end()? {
+                return Ok(w.offset() - start);
+            }
+            if self.intact_len(w)?.is_some() {
+                return Ok(w.offset() - start);
+            }
+            w.consume(4);
+        }
+    }
+
+    /// Reads the block at the window's start (without consuming it).
+    fn block<R: Read>(&mut self, w: &mut Window<R>) -> std::io::Result<Block> {
+        let h = w.peek(12)?;
+        if u32_of(h, true) == Some(SHB) {
+            // Byte-order magic decides the endianness of this section.
+            self.le = match h.get(8..12) {
+                Some([0x4d, 0x3c, 0x2b, 0x1a]) => true,
+                Some([0x1a, 0x2b, 0x3c, 0x4d]) => false,
+                _ => return Ok(Block::Damaged("pcapng byte-order magic missing")),
+            };
+            self.ifaces.clear();
+        }
+        let Some(len) = self.intact_len(w)? else {
+            return Ok(Block::Damaged(
+                "pcapng block length invalid (or the file is cut inside the block)",
+            ));
+        };
+        let le = self.le;
+        let b = w.peek(len)?;
+        let btype = u32_of(b, le).unwrap_or(0);
+        let body = b.get(8..len - 4).unwrap_or(&[]);
+        Ok(match parse_body(btype, body, le, &mut self.ifaces) {
+            Ok(packet) => Block::Read(len, packet),
+            Err(what) => Block::Damaged(what),
+        })
+    }
 }
 
-/// Reads the block at `at`: its length, or what is wrong with it.
-fn block(
-    b: &[u8],
-    at: usize,
-    le: &mut bool,
+/// The packet a block's body carries, if any (interface blocks are added to `ifaces`).
+fn parse_body(
+    btype: u32,
+    body: &[u8],
+    le: bool,
     ifaces: &mut Vec<Interface>,
-    each: &mut impl FnMut(&Packet<'_>),
-) -> Result<usize, &'static str> {
-    let rd = |le: bool, p: usize| -> Option<u32> {
-        let s: [u8; 4] = b.get(p..p + 4)?.try_into().ok()?;
-        Some(if le {
-            u32::from_le_bytes(s)
-        } else {
-            u32::from_be_bytes(s)
-        })
-    };
-    let raw_type = rd(true, at).ok_or("pcapng block header truncated")?;
-    if raw_type == SHB {
-        // Byte-order magic decides the endianness of this section.
-        *le = match b.get(at + 8..at + 12) {
-            Some([0x4d, 0x3c, 0x2b, 0x1a]) => true,
-            Some([0x1a, 0x2b, 0x3c, 0x4d]) => false,
-            _ => return Err("pcapng byte-order magic missing"),
-        };
-        ifaces.clear();
-    }
-    let le = *le;
-    let btype = rd(le, at).ok_or("pcapng block truncated")?;
-    let len = rd(le, at + 4).ok_or("pcapng block truncated")? as usize;
-    if len < 12 || len % 4 != 0 || at + len > b.len() || rd(le, at + len - 4) != Some(len as u32) {
-        return Err("pcapng block length invalid (or the file is cut inside the block)");
-    }
-    let body = b
-        .get(at + 8..at + len - 4)
-        .ok_or("pcapng block truncated")?;
+) -> Result<Option<CapturedPacket>, &'static str> {
     // An unsigned field of `n` bytes (2 or 4) of the block, in the section's byte order.
     let uint_in = |p: usize, n: usize| -> Option<u32> {
         let bytes = body.get(p..p + n)?;
@@ -182,23 +237,23 @@ fn block(
                 .get(data_at..data_at + cap as usize)
                 .ok_or("packet data truncated")?;
             let ticks = ((hi as u64) << 32) | lo as u64;
-            each(&Packet {
+            return Ok(Some(CapturedPacket {
                 time_s: Some(ticks as f64 * i.tick_s),
                 linktype: i.linktype,
-                data,
-            });
+                data: data.to_vec(),
+            }));
         }
         SIMPLE_PACKET => {
             let i = ifaces.first().ok_or("packet before any interface block")?;
             let orig = u32_in(0).ok_or("packet block truncated")? as usize;
             let data = body.get(4..(4 + orig).min(body.len())).unwrap_or(&[]);
-            each(&Packet {
+            return Ok(Some(CapturedPacket {
                 time_s: None,
                 linktype: i.linktype,
-                data,
-            });
+                data: data.to_vec(),
+            }));
         }
         _ => {}
     }
-    Ok(len)
+    Ok(None)
 }

@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use super::{Chunk, Direction};
+use super::{CapturedPacket, Chunk, Direction};
 
 /// TCP ports SICK scanners serve CoLa on (2112 both dialects, 2111 CoLa-A).
 pub const SICK_PORTS: [u16; 2] = [2111, 2112];
@@ -28,12 +28,13 @@ pub struct TcpStats {
     pub gaps: u64,
 }
 
-/// One captured packet: time (s) and link-layer bytes.
-pub(crate) struct Packet<'a> {
-    pub time_s: Option<f64>,
-    pub linktype: u32,
-    pub data: &'a [u8],
-}
+/// Bytes a flow holds back waiting for a gap to fill before it delivers across the gap:
+/// a segment lost from the capture must not make the reassembly keep the rest of the file.
+const MAX_HELD_BYTES: usize = 4 << 20;
+
+/// Flows followed at most; packets of further flows are skipped (a capture of a busy
+/// network, or garbage read as packets).
+const MAX_FLOWS: usize = 1024;
 
 /// (source address, source port, destination address, destination port)
 type FlowKey = ([u8; 4], u16, [u8; 4], u16);
@@ -41,6 +42,7 @@ type FlowKey = ([u8; 4], u16, [u8; 4], u16);
 struct Flow {
     next_seq: Option<u32>,
     held: BTreeMap<u32, (Option<f64>, Vec<u8>)>,
+    held_bytes: usize,
     direction: Direction,
 }
 
@@ -120,16 +122,22 @@ fn parse_segment(linktype: u32, data: &[u8]) -> Option<Segment<'_>> {
 }
 
 impl Reassembler {
-    /// Adds one captured packet.
-    pub fn push(&mut self, p: &Packet<'_>) {
+    /// Adds one captured packet; the chunks it completes are in `chunks` (take them with
+    /// [`Reassembler::take_chunks`]).
+    pub fn push(&mut self, p: &CapturedPacket) {
         self.stats.packets += 1;
-        let Some(seg) = parse_segment(p.linktype, p.data) else {
+        let Some(seg) = parse_segment(p.linktype, &p.data) else {
             self.stats.skipped += 1;
             return;
         };
+        if self.flows.len() >= MAX_FLOWS && !self.flows.contains_key(&seg.key) {
+            self.stats.skipped += 1;
+            return;
+        }
         let flow = self.flows.entry(seg.key).or_insert_with(|| Flow {
             next_seq: None,
             held: BTreeMap::new(),
+            held_bytes: 0,
             direction: if SICK_PORTS.contains(&seg.key.1) {
                 Direction::SensorToHost
             } else if SICK_PORTS.contains(&seg.key.3) {
@@ -149,7 +157,13 @@ impl Reassembler {
         let rel = seg.seq.wrapping_sub(next) as i32;
         if rel > 0 {
             self.stats.out_of_order += 1;
-            flow.held.insert(seg.seq, (p.time_s, seg.payload.to_vec()));
+            flow.held_bytes += seg.payload.len();
+            if let Some((_, old)) = flow.held.insert(seg.seq, (p.time_s, seg.payload.to_vec())) {
+                flow.held_bytes -= old.len();
+            }
+            if flow.held_bytes > MAX_HELD_BYTES {
+                drain_held(flow, &mut self.chunks, &mut self.stats, true);
+            }
             return;
         }
         let skip = rel.unsigned_abs() as usize;
@@ -162,8 +176,13 @@ impl Reassembler {
         drain_held(flow, &mut self.chunks, &mut self.stats, false);
     }
 
-    /// Delivers what is still held back (across gaps) and returns the chunks in capture order.
-    pub fn finish(mut self) -> (Vec<Chunk>, TcpStats) {
+    /// The chunks completed so far, in capture order.
+    pub fn take_chunks(&mut self) -> std::vec::Drain<'_, Chunk> {
+        self.chunks.drain(..)
+    }
+
+    /// Delivers what is still held back (across gaps) into `chunks`.
+    pub fn finish(&mut self) {
         let mut keys: Vec<FlowKey> = self.flows.keys().copied().collect();
         keys.sort_unstable();
         for k in keys {
@@ -171,7 +190,6 @@ impl Reassembler {
                 drain_held(flow, &mut self.chunks, &mut self.stats, true);
             }
         }
-        (self.chunks, self.stats)
     }
 }
 
@@ -203,6 +221,7 @@ fn drain_held(flow: &mut Flow, chunks: &mut Vec<Chunk>, stats: &mut TcpStats, fo
         let Some((time_s, data)) = flow.held.remove(&seq) else {
             return;
         };
+        flow.held_bytes -= data.len();
         if rel > 0 {
             stats.gaps += 1;
             flow.next_seq = Some(seq);

@@ -13,7 +13,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
-use lidar_driver::recording::{Direction, RecordedFrames, Recording};
+use lidar_driver::framer::FramerStats;
+use lidar_driver::recording::{Direction, FrameReader, RecordingError, RecordingReader};
 use lidar_driver::{Answer, Request, ScanData, Telegram};
 
 /// Output formats.
@@ -45,23 +46,27 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let rec = match Recording::read_file(&cli.file) {
+    let mut reader = match RecordingReader::open(&cli.file) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("sick-dump: {}: {e}", cli.file.display());
             return ExitCode::FAILURE;
         }
     };
-    // A damaged file is read around its damage: say where, and dump the rest.
-    for d in &rec.damage {
-        eprintln!("sick-dump: {}: {d}", cli.file.display());
-    }
-    let frames = rec.frames();
     let stdout = io::stdout();
     let mut out = BufWriter::new(stdout.lock());
-    let result = run(&cli, &rec, &frames, &mut out).and_then(|_| out.flush());
+    // The file is streamed: memory stays at its largest record, whatever its size.
+    let result = run(&cli, &mut reader, &mut out).and_then(|r| out.flush().map(|_| r));
+    // A damaged file is read around its damage: say where (the rest was dumped).
+    for d in reader.damage() {
+        eprintln!("sick-dump: {}: {d}", cli.file.display());
+    }
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(e)) => {
+            eprintln!("sick-dump: {}: {e}", cli.file.display());
+            ExitCode::FAILURE
+        }
         // A closed pipe (`| head`) is not an error.
         Err(e) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
         Err(e) => {
@@ -79,12 +84,12 @@ struct Counts {
     not_telegrams: u64,
 }
 
-fn run(
+/// Dumps the frames; the outer error is the output's, the inner the recording's.
+fn run<R: io::Read>(
     cli: &Cli,
-    rec: &Recording,
-    frames: &RecordedFrames,
+    reader: &mut RecordingReader<R>,
     out: &mut impl Write,
-) -> io::Result<()> {
+) -> io::Result<Result<(), RecordingError>> {
     let mut counts = Counts::default();
     if cli.format == Format::Table && !cli.quiet {
         writeln!(
@@ -93,7 +98,17 @@ fn run(
             "#", "time_s", "dir", "dialect", "type", "name"
         )?;
     }
-    for (i, f) in frames.frames.iter().enumerate() {
+    let mut frames = FrameReader::new(|| reader.next_chunk());
+    let mut i = 0usize;
+    loop {
+        let f = match frames.next_frame() {
+            Ok(Some(Ok(f))) => f,
+            Ok(Some(Err(_))) => continue,
+            Ok(None) => break,
+            Err(e) => return Ok(Err(e)),
+        };
+        i += 1;
+        let i = i - 1;
         let Ok(t) = Telegram::parse(f.frame()) else {
             counts.not_telegrams += 1;
             continue;
@@ -149,15 +164,17 @@ fn run(
             Format::Table => {}
         }
     }
+    let framer = frames.stats();
+    drop(frames);
     if cli.stats {
-        let text = stats_text(rec, frames, &counts);
+        let text = stats_text(reader, &framer, &counts);
         if cli.format == Format::Jsonl {
             eprint!("{text}");
         } else {
             write!(out, "{text}")?;
         }
     }
-    Ok(())
+    Ok(Ok(()))
 }
 
 fn answer_summary(a: &Answer<'_>) -> String {
@@ -225,11 +242,10 @@ fn scan_json(s: &ScanData<'_>, time_s: Option<f64>) -> serde_json::Value {
     })
 }
 
-fn stats_text(rec: &Recording, frames: &RecordedFrames, c: &Counts) -> String {
-    let s = &frames.stats;
+fn stats_text<R: io::Read>(rec: &RecordingReader<R>, s: &FramerStats, c: &Counts) -> String {
     let mut t = String::new();
-    t.push_str(&format!("format: {:?}\n", rec.format));
-    for d in &rec.damage {
+    t.push_str(&format!("format: {:?}\n", rec.format()));
+    for d in rec.damage() {
         t.push_str(&format!("file {d}\n"));
     }
     t.push_str(&format!(
@@ -271,7 +287,7 @@ fn stats_text(rec: &Recording, frames: &RecordedFrames, c: &Counts) -> String {
             c.not_telegrams
         ));
     }
-    if let Some(tcp) = rec.tcp {
+    if let Some(tcp) = rec.tcp_stats() {
         t.push_str(&format!(
             "tcp: packets {}, non-TCP {}, segments {}, retransmissions dropped {}, out of order {}, gaps {}\n",
             tcp.packets, tcp.skipped, tcp.segments, tcp.retransmissions, tcp.out_of_order, tcp.gaps
