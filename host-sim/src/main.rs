@@ -380,7 +380,12 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         EstimatorArg::Localizer => EstimatorChoice::Localizer,
         EstimatorArg::Odometry => EstimatorChoice::OdometryOnly,
     };
-    let rep = replay::replay(&src, est).map_err(|e| e.to_string())?;
+    // The scans are kept only for the MCAP file of --out: without it memory does not grow
+    // with the recording.
+    let options = replay::ReplayOptions {
+        keep_scans: a.out.is_some(),
+    };
+    let rep = replay::replay_with(&src, est, &options).map_err(|e| e.to_string())?;
     for w in &rep.warnings {
         eprintln!("host-sim: warning: {w}");
     }

@@ -31,7 +31,7 @@ use crate::status::EstimatorStatus;
 use crate::vehicle::SimPose;
 
 use odometry_check::OdometryError;
-use scan_source::{RecordedScans, ScanSourceError};
+use scan_source::{ScanSourceError, ScanStream};
 
 /// The files a replay reads.
 #[derive(Debug, Clone, PartialEq)]
@@ -242,7 +242,7 @@ pub struct Replay {
 /// would be localised without the motion between them.
 fn check_clocks(
     odometry: &[crate::vehicle::odometry::OdometrySample],
-    scans: &[crate::lidar::LidarScan],
+    scans: &[ReplayStep],
 ) -> Result<(), ReplayError> {
     let (Some(o0), Some(o1)) = (odometry.first(), odometry.last()) else {
         return Ok(());
@@ -286,8 +286,33 @@ pub struct ScanSummary {
     pub odometry_left_out: usize,
 }
 
-/// Runs a replay with the chosen estimator.
+/// How a replay runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReplayOptions {
+    /// Keep every scored scan in the log (for the MCAP file of `--out`; 2.3 kB per scan).
+    /// Without it memory does not grow with the recording but for the per-scan results
+    /// (≈ 0.3 kB per scan).
+    pub keep_scans: bool,
+}
+
+impl Default for ReplayOptions {
+    /// Scans kept.
+    fn default() -> Self {
+        Self { keep_scans: true }
+    }
+}
+
+/// Runs a replay with the chosen estimator, the scans kept ([`ReplayOptions::default`]).
 pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay, ReplayError> {
+    replay_with(sources, choice, &ReplayOptions::default())
+}
+
+/// Runs a replay with the chosen estimator and options.
+pub fn replay_with(
+    sources: &ReplaySources,
+    choice: EstimatorChoice,
+    options: &ReplayOptions,
+) -> Result<Replay, ReplayError> {
     let wall = Instant::now();
     let scenario = Scenario::from_file(&sources.scenario)?;
     // The centre line alone (for the along/across split): no simulated world is built.
@@ -302,34 +327,11 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
             path: sources.map.clone(),
             source,
         })?;
-    let recorded = scan_source::read_scans(&sources.scanner, sources.scanner_times.as_deref())?;
+    // The scanner recording is streamed through the estimator: memory holds one record of
+    // it, the per-scan results and (for `--out`'s MCAP file) the scans only when asked.
+    let mut stream = ScanStream::open(&sources.scanner, sources.scanner_times.as_deref())?;
     let checked = odometry_check::check(&odometry_csv::read(&sources.odometry)?)?;
     let odometry = &checked.readings;
-    // Damage is reported, not fatal: the replay runs on every scan that survived it.
-    check_clocks(odometry, &recorded.scans)?;
-    let mut warnings: Vec<String> = checked
-        .warnings()
-        .into_iter()
-        .chain(
-            recorded
-                .file_damage
-                .iter()
-                .map(|d| format!("scanner recording: {d}")),
-        )
-        .chain(
-            recorded
-                .damaged
-                .iter()
-                .map(|d| format!("scanner recording: {d}")),
-        )
-        .collect();
-    if recorded.bad_frames > 0 || recorded.garbage_bytes > 0 {
-        warnings.push(format!(
-            "scanner recording: {} damaged frames dropped and {} bytes outside any telegram skipped (the framer resynchronised on the next start marker)",
-            recorded.bad_frames, recorded.garbage_bytes
-        ));
-    }
-    warnings.extend(coverage_warning(odometry, &recorded.scans));
     let truth = match &sources.ground_truth {
         Some(p) => Some(truth_csv::read(p)?),
         None => None,
@@ -354,18 +356,45 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         .and_then(|t| t.first())
         .map_or(initial.pose, |r| r.pose);
 
-    let (steps, name) = match choice {
+    let keep = options.keep_scans;
+    let (steps, kept, name) = match choice {
         EstimatorChoice::OdometryOnly => {
             let mut est = OdometryOnly::default();
-            let steps = drive(&mut est, initial, start, odometry, &recorded);
-            (steps, est.name())
+            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            (steps, kept, est.name())
         }
         EstimatorChoice::Localizer => {
             let mut est = LocCoreEstimator::new(&map, &scenario);
-            let steps = drive(&mut est, initial, start, odometry, &recorded);
-            (steps, est.name())
+            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            (steps, kept, est.name())
         }
     };
+    let recorded = stream.summary();
+    check_clocks(odometry, &steps)?;
+    // Damage is reported, not fatal: the replay ran on every scan that survived it.
+    let mut warnings: Vec<String> = checked
+        .warnings()
+        .into_iter()
+        .chain(
+            recorded
+                .file_damage
+                .iter()
+                .map(|d| format!("scanner recording: {d}")),
+        )
+        .chain(
+            recorded
+                .damaged
+                .iter()
+                .map(|d| format!("scanner recording: {d}")),
+        )
+        .collect();
+    if recorded.bad_frames > 0 || recorded.garbage_bytes > 0 {
+        warnings.push(format!(
+            "scanner recording: {} damaged frames dropped and {} bytes outside any telegram skipped (the framer resynchronised on the next start marker)",
+            recorded.bad_frames, recorded.garbage_bytes
+        ));
+    }
+    warnings.extend(coverage_warning(odometry, &steps));
     let scored = match &truth {
         Some(rows) => truth::samples(&steps, rows, &line, scenario.drive.start_m),
         None => Vec::new(),
@@ -374,14 +403,14 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
         .iter()
         .filter_map(|(i, _)| steps.get(*i).map(|x| x.status))
         .collect();
-    // The scored scans stay with their samples (for the MCAP file).
+    // The scored scans stay with their samples (for the MCAP file), when kept.
     let scans = scored
         .iter()
-        .filter_map(|(i, _)| recorded.scans.get(*i).cloned())
+        .filter_map(|(i, _)| kept.get(*i).cloned())
         .collect();
     let samples: Vec<Sample> = scored.into_iter().map(|(_, s)| s).collect();
     let source = ScanSummary {
-        scans: recorded.scans.len(),
+        scans: steps.len(),
         odometry_readings: odometry.len(),
         scored_scans: samples.len(),
         format: recorded.format,
@@ -427,7 +456,7 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
 /// than two reading intervals): those are coasted across, with growing uncertainty.
 fn coverage_warning(
     odometry: &[crate::vehicle::odometry::OdometrySample],
-    scans: &[crate::lidar::LidarScan],
+    scans: &[ReplayStep],
 ) -> Option<String> {
     let (first, last) = (odometry.first()?, odometry.last()?);
     let (s0, s1) = (scans.first()?.t_s, scans.last()?.t_s);
@@ -468,19 +497,22 @@ fn map_warning(steps: &[ReplayStep]) -> Option<String> {
 }
 
 /// Feeds the estimator like the closed loop does: reset, then per scan every odometry
-/// reading up to the scan's time (inclusive) and the scan.
+/// reading up to the scan's time (inclusive) and the scan; the scans are kept (returned)
+/// only with `keep_scans`.
 fn drive(
     est: &mut dyn Estimator,
     initial: InitialPose,
     start: SimPose,
     odometry: &[crate::vehicle::odometry::OdometrySample],
-    recorded: &RecordedScans,
-) -> Vec<ReplayStep> {
+    scans: &mut ScanStream,
+    keep_scans: bool,
+) -> Result<(Vec<ReplayStep>, Vec<crate::lidar::LidarScan>), ScanSourceError> {
     est.reset(initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad);
     let mut odo_pose = start;
     let mut next = 0usize;
-    let mut steps = Vec::with_capacity(recorded.scans.len());
-    for scan in &recorded.scans {
+    let mut steps = Vec::new();
+    let mut kept = Vec::new();
+    while let Some(scan) = scans.next_scan()? {
         while let Some(r) = odometry.get(next).filter(|r| r.t_s <= scan.t_s) {
             est.odometry(r);
             // The simulator's odometry integrates its readings the same way.
@@ -488,7 +520,7 @@ fn drive(
             next += 1;
         }
         let t0 = Instant::now();
-        let out = est.scan(scan);
+        let out = est.scan(&scan);
         steps.push(ReplayStep {
             t_s: scan.t_s,
             estimate: out.pose,
@@ -497,8 +529,11 @@ fn drive(
             odometry: odo_pose,
             update_us: t0.elapsed().as_secs_f64() * 1e6,
         });
+        if keep_scans {
+            kept.push(scan);
+        }
     }
-    steps
+    Ok((steps, kept))
 }
 
 /// Writes the estimates (`estimates.csv`: one row per scan, with or without ground truth).

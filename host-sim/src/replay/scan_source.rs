@@ -15,9 +15,13 @@
 //! The odometry log must be on the same clock as the scan times.
 
 use std::fmt;
+use std::fs::File;
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use lidar_driver::recording::{Direction, Recording, RecordingError, RecordingFormat};
+use lidar_driver::recording::{
+    Direction, FrameReader, RecordingError, RecordingFormat, RecordingReader,
+};
 use lidar_driver::ScanData;
 
 use scan_input::BeamLayout;
@@ -161,191 +165,327 @@ fn lidar_scan(scan: &ScanData<'_>) -> Result<LidarScan, String> {
     })
 }
 
-/// A decoded scan telegram with what times it.
-struct Decoded {
-    scan: LidarScan,
-    telegram_counter: u16,
-    capture_time_s: Option<f64>,
-    clock_us: u32,
+/// How rows of the times file are paired with scan telegrams.
+enum Pairing {
+    /// No times file.
+    None,
+    /// By telegram counter (u16, wrapping: matched in stream order).
+    Counter {
+        t: usize,
+        counter: usize,
+        offset: Option<usize>,
+    },
+    /// By count: the n-th scan telegram gets the n-th row.
+    Count { t: usize },
 }
 
 /// How many rows past the expected one a telegram is looked for (rows lost to damage in a
 /// row before a telegram that survived).
 const PAIRING_WINDOW_ROWS: usize = 4096;
 
-/// Reads the scans of `path`; `sidecar` is the optional times CSV.
+/// The scans of a recording, decoded one at a time as the file is read (memory: the largest
+/// record, and the times file).
 ///
 /// Damage loses only what is damaged: a telegram that does not frame or decode is dropped
 /// (the framer resyncs on the next one); damaged parts of a capture file are read around
 /// ([`RecordedScans::file_damage`]). With a times file that has a `telegram_counter` column
-/// (as `host-sim run --record` writes) rows and telegrams are paired by that counter, so each
-/// lost telegram is named by its row and offset ([`RecordedScans::damaged`]) and cannot shift
-/// the times of the others; without it they are paired by count, which damage makes
+/// (as `host-sim run --record` writes) rows and telegrams are paired by that counter, so
+/// each lost telegram is named by its row and offset ([`RecordedScans::damaged`]) and cannot
+/// shift the times of the others; without it they are paired by count, which damage makes
 /// impossible ([`ScanSourceError::SidecarCount`]).
-pub fn read_scans(path: &Path, sidecar: Option<&Path>) -> Result<RecordedScans, ScanSourceError> {
-    let unreadable = |source| ScanSourceError::Recording {
-        path: path.to_path_buf(),
-        source,
-    };
-    let bytes = std::fs::read(path).map_err(|e| unreadable(RecordingError::Io(e)))?;
-    let rec = Recording::parse(&bytes).map_err(unreadable)?;
-    let table = match sidecar {
-        Some(p) => Some(CsvTable::read(p).map_err(ScanSourceError::Sidecar)?),
-        None => None,
-    };
-    let frames = rec.frames();
-    let mut decoded = Vec::new();
-    let mut damaged = Vec::new();
-    let mut other_frames = 0usize;
-    for f in &frames.frames {
-        if f.direction == Direction::HostToSensor {
-            other_frames += 1;
-            continue;
-        }
-        let index = decoded.len() + damaged.len();
-        let result = match ScanData::new_checked(f.frame()) {
-            Ok(s) => lidar_scan(&s).map(|scan| Decoded {
-                scan,
-                telegram_counter: s.header.telegram_counter,
-                capture_time_s: f.time_s,
-                clock_us: s.header.time_since_startup_us,
-            }),
-            Err(lidar_driver::ScanError::NotScanData { .. }) => {
-                other_frames += 1;
-                continue;
-            }
-            Err(e) => Err(e.to_string()),
-        };
-        match result {
-            Ok(d) => decoded.push(d),
-            Err(reason) => damaged.push(DamagedScan {
-                index,
-                offset_bytes: None,
-                reason,
-            }),
-        }
-    }
-    if decoded.is_empty() {
-        return Err(ScanSourceError::NoScans {
-            path: path.to_path_buf(),
-        });
-    }
-    let time_source = match &table {
-        Some(t) if t.optional_column("telegram_counter").is_some() => {
-            // Rows name the lost telegrams: the count-based list is replaced.
-            damaged = pair_by_counter(&mut decoded, t)?;
-            TimeSource::Sidecar
-        }
-        Some(t) => {
-            let c = t.column("t_s").map_err(ScanSourceError::Sidecar)?;
-            if t.rows().len() != decoded.len() {
-                return Err(ScanSourceError::SidecarCount {
-                    rows: t.rows().len(),
-                    scans: decoded.len(),
-                });
-            }
-            for (d, r) in decoded.iter_mut().zip(t.rows()) {
-                d.scan.t_s = cell(r, c);
-            }
-            TimeSource::Sidecar
-        }
-        None if decoded.iter().all(|d| d.capture_time_s.is_some()) => {
-            for d in &mut decoded {
-                d.scan.t_s = d.capture_time_s.unwrap_or(0.0);
-            }
-            TimeSource::Capture
-        }
-        None => {
-            // Unwrap the u32 µs counter.
-            let mut wraps = 0u64;
-            let mut prev = None;
-            for d in &mut decoded {
-                if prev.is_some_and(|p| d.clock_us < p) {
-                    wraps += 1;
-                }
-                prev = Some(d.clock_us);
-                d.scan.t_s = (wraps * (1u64 << 32) + u64::from(d.clock_us)) as f64 / 1e6;
-            }
-            TimeSource::ScannerClock
-        }
-    };
-    Ok(RecordedScans {
-        scans: decoded.into_iter().map(|d| d.scan).collect(),
-        format: rec.format,
-        time_source,
-        other_frames,
-        bad_frames: frames.errors.len(),
-        garbage_bytes: frames.stats.garbage_bytes,
-        damaged,
-        file_damage: rec.damage.clone(),
-    })
+pub struct ScanStream {
+    path: PathBuf,
+    frames: FrameReader<RecordingReader<BufReader<File>>>,
+    table: Option<CsvTable>,
+    pairing: Pairing,
+    next_row: usize,
+    time_source: TimeSource,
+    /// Scanner clock unwrapping: wraps so far and the last value.
+    wraps: u64,
+    last_clock_us: Option<u32>,
+    /// Scan telegrams seen (decoded or not).
+    telegrams: usize,
+    /// Of which decoded.
+    decoded: usize,
+    scans: usize,
+    other_frames: usize,
+    bad_frames: usize,
+    damaged: Vec<DamagedScan>,
+    ended: bool,
 }
 
-/// Times the decoded telegrams from the rows with their telegram counter (u16, wrapping:
-/// matched in stream order) and returns the rows no telegram answered, with their offsets.
-/// A telegram with no row is dropped and listed too.
-fn pair_by_counter(
-    decoded: &mut Vec<Decoded>,
-    t: &CsvTable,
-) -> Result<Vec<DamagedScan>, ScanSourceError> {
-    let col = |name| t.column(name).map_err(ScanSourceError::Sidecar);
-    let (c_t, c_counter) = (col("t_s")?, col("telegram_counter")?);
-    let c_offset = t.optional_column("offset_bytes");
-    let rows = t.rows();
-    let lost = |index: usize, reason: &str| DamagedScan {
-        index,
-        offset_bytes: c_offset
-            .and_then(|c| rows.get(index).map(|r| cell(r, c)))
-            .filter(|o| *o >= 0.0)
-            .map(|o| o as u64),
-        reason: reason.to_string(),
-    };
-    let mut damaged = Vec::new();
-    let mut next_row = 0usize;
-    let mut kept = Vec::with_capacity(decoded.len());
-    for (k, mut d) in decoded.drain(..).enumerate() {
+impl ScanStream {
+    /// Opens the stream `path`; `sidecar` is the optional times CSV.
+    pub fn open(path: &Path, sidecar: Option<&Path>) -> Result<Self, ScanSourceError> {
+        let unreadable = |source| ScanSourceError::Recording {
+            path: path.to_path_buf(),
+            source,
+        };
+        let reader = RecordingReader::open(path).map_err(unreadable)?;
+        let format = reader.format();
+        let table = match sidecar {
+            Some(p) => Some(CsvTable::read(p).map_err(ScanSourceError::Sidecar)?),
+            None => None,
+        };
+        let col = |t: &CsvTable, name| t.column(name).map_err(ScanSourceError::Sidecar);
+        let (pairing, time_source) = match &table {
+            Some(t) if t.optional_column("telegram_counter").is_some() => (
+                Pairing::Counter {
+                    t: col(t, "t_s")?,
+                    counter: col(t, "telegram_counter")?,
+                    offset: t.optional_column("offset_bytes"),
+                },
+                TimeSource::Sidecar,
+            ),
+            Some(t) => (Pairing::Count { t: col(t, "t_s")? }, TimeSource::Sidecar),
+            None if format == RecordingFormat::Raw => (Pairing::None, TimeSource::ScannerClock),
+            None => (Pairing::None, TimeSource::Capture),
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            frames: FrameReader::new(reader),
+            table,
+            pairing,
+            next_row: 0,
+            time_source,
+            wraps: 0,
+            last_clock_us: None,
+            telegrams: 0,
+            decoded: 0,
+            scans: 0,
+            other_frames: 0,
+            bad_frames: 0,
+            damaged: Vec::new(),
+            ended: false,
+        })
+    }
+
+    /// Where the scan times come from.
+    pub fn time_source(&self) -> TimeSource {
+        self.time_source
+    }
+
+    /// The next scan with its time, `None` at the end.
+    pub fn next_scan(&mut self) -> Result<Option<LidarScan>, ScanSourceError> {
+        loop {
+            if self.ended {
+                return Ok(None);
+            }
+            let item = self
+                .frames
+                .next_frame()
+                .map_err(|source| ScanSourceError::Recording {
+                    path: self.path.clone(),
+                    source,
+                })?;
+            let f = match item {
+                None => {
+                    self.end()?;
+                    return Ok(None);
+                }
+                Some(Err(_)) => {
+                    self.bad_frames += 1;
+                    continue;
+                }
+                Some(Ok(f)) => f,
+            };
+            if f.direction == Direction::HostToSensor {
+                self.other_frames += 1;
+                continue;
+            }
+            let index = self.telegrams;
+            let decoded = match ScanData::new_checked(f.frame()) {
+                Err(lidar_driver::ScanError::NotScanData { .. }) => {
+                    self.other_frames += 1;
+                    continue;
+                }
+                Err(e) => Err(e.to_string()),
+                Ok(s) => lidar_scan(&s)
+                    .map(|l| (l, s.header.telegram_counter, s.header.time_since_startup_us)),
+            };
+            self.telegrams += 1;
+            let (mut scan, counter, clock_us) = match decoded {
+                Ok(d) => {
+                    self.decoded += 1;
+                    d
+                }
+                Err(reason) => {
+                    // Paired by counter, the lost telegram is named by the row it misses.
+                    if !matches!(self.pairing, Pairing::Counter { .. }) {
+                        self.damaged.push(DamagedScan {
+                            index,
+                            offset_bytes: None,
+                            reason,
+                        });
+                    }
+                    continue;
+                }
+            };
+            let time = match self.pairing {
+                Pairing::Counter { .. } => self.pair_by_counter(counter, index)?,
+                Pairing::Count { t } => {
+                    let row = self
+                        .table
+                        .as_ref()
+                        .and_then(|tb| tb.rows().get(self.next_row));
+                    let Some(r) = row else {
+                        return Err(self.count_mismatch());
+                    };
+                    self.next_row += 1;
+                    Some(cell(r, t))
+                }
+                Pairing::None if self.time_source == TimeSource::Capture => match f.time_s {
+                    Some(t) => Some(t),
+                    None => {
+                        self.damaged.push(DamagedScan {
+                            index,
+                            offset_bytes: None,
+                            reason: "the capture gives it no time stamp".into(),
+                        });
+                        None
+                    }
+                },
+                Pairing::None => {
+                    // Unwrap the u32 µs counter.
+                    if self.last_clock_us.is_some_and(|p| clock_us < p) {
+                        self.wraps += 1;
+                    }
+                    self.last_clock_us = Some(clock_us);
+                    Some((self.wraps * (1u64 << 32) + u64::from(clock_us)) as f64 / 1e6)
+                }
+            };
+            let Some(t_s) = time else { continue };
+            scan.t_s = t_s;
+            self.scans += 1;
+            return Ok(Some(scan));
+        }
+    }
+
+    /// The time of the row whose telegram counter is `counter`, searched from the next
+    /// unpaired row on; the rows skipped are lost telegrams. `None` when no row has it.
+    fn pair_by_counter(
+        &mut self,
+        counter: u16,
+        index: usize,
+    ) -> Result<Option<f64>, ScanSourceError> {
+        let Pairing::Counter { t, counter: c, .. } = self.pairing else {
+            return Ok(None);
+        };
+        let rows = self.table.as_ref().map_or(&[][..], CsvTable::rows);
         let found = rows
             .iter()
             .enumerate()
-            .skip(next_row)
+            .skip(self.next_row)
             .take(PAIRING_WINDOW_ROWS)
-            .find(|(_, r)| cell(r, c_counter) == f64::from(d.telegram_counter));
+            .find(|(_, r)| cell(r, c) == f64::from(counter))
+            .map(|(row, r)| (row, cell(r, t)));
         match found {
-            Some((row, r)) => {
-                for missing in next_row..row {
-                    damaged.push(lost(
-                        missing,
-                        "its telegram is not in the stream (damaged, cut or lost)",
-                    ));
+            Some((row, t_s)) => {
+                for missing in self.next_row..row {
+                    self.lost_row(missing);
                 }
-                d.scan.t_s = cell(r, c_t);
-                kept.push(d);
-                next_row = row + 1;
+                self.next_row = row + 1;
+                Ok(Some(t_s))
             }
-            None => damaged.push(DamagedScan {
-                index: k,
-                offset_bytes: None,
-                reason: format!(
-                    "telegram counter {} is in no row of the times file after row {next_row}",
-                    d.telegram_counter
-                ),
-            }),
+            None => {
+                self.damaged.push(DamagedScan {
+                    index,
+                    offset_bytes: None,
+                    reason: format!(
+                        "telegram counter {counter} is in no row of the times file after row {}",
+                        self.next_row
+                    ),
+                });
+                Ok(None)
+            }
         }
     }
-    for missing in next_row..rows.len() {
-        damaged.push(lost(
-            missing,
-            "its telegram is not in the stream (damaged, cut or lost)",
-        ));
-    }
-    if kept.is_empty() {
-        return Err(ScanSourceError::SidecarUnpaired {
-            rows: rows.len(),
-            scans: damaged.len().saturating_sub(rows.len()),
+
+    /// Row `row` of the times file has no telegram.
+    fn lost_row(&mut self, row: usize) {
+        let offset_bytes = match (&self.pairing, &self.table) {
+            (
+                Pairing::Counter {
+                    offset: Some(c), ..
+                },
+                Some(t),
+            ) => t
+                .rows()
+                .get(row)
+                .map(|r| cell(r, *c))
+                .filter(|o| *o >= 0.0)
+                .map(|o| o as u64),
+            _ => None,
+        };
+        self.damaged.push(DamagedScan {
+            index: row,
+            offset_bytes,
+            reason: "its telegram is not in the stream (damaged, cut or lost)".into(),
         });
     }
-    *decoded = kept;
-    Ok(damaged)
+
+    fn count_mismatch(&self) -> ScanSourceError {
+        ScanSourceError::SidecarCount {
+            rows: self.table.as_ref().map_or(0, |t| t.rows().len()),
+            scans: self.telegrams,
+        }
+    }
+
+    /// At the end of the stream: the rows no telegram came for, and the counts checked.
+    fn end(&mut self) -> Result<(), ScanSourceError> {
+        self.ended = true;
+        let rows = self.table.as_ref().map_or(0, |t| t.rows().len());
+        match self.pairing {
+            Pairing::Counter { .. } => {
+                if self.scans == 0 && self.decoded > 0 {
+                    return Err(ScanSourceError::SidecarUnpaired {
+                        rows,
+                        scans: self.decoded,
+                    });
+                }
+                for missing in self.next_row..rows {
+                    self.lost_row(missing);
+                }
+            }
+            Pairing::Count { .. } if self.next_row != rows => return Err(self.count_mismatch()),
+            _ => {}
+        }
+        if self.scans == 0 {
+            return Err(ScanSourceError::NoScans {
+                path: self.path.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// What the stream held, once read to its end (the scans themselves left out).
+    pub fn summary(&self) -> RecordedScans {
+        let source = self.frames.source();
+        RecordedScans {
+            scans: Vec::new(),
+            format: source.format(),
+            time_source: self.time_source,
+            other_frames: self.other_frames,
+            bad_frames: self.bad_frames,
+            garbage_bytes: self.frames.stats().garbage_bytes,
+            damaged: self.damaged.clone(),
+            file_damage: source.damage().to_vec(),
+        }
+    }
+}
+
+/// Reads all the scans of `path` (see [`ScanStream`]); `sidecar` is the optional times
+/// CSV.
+pub fn read_scans(path: &Path, sidecar: Option<&Path>) -> Result<RecordedScans, ScanSourceError> {
+    let mut stream = ScanStream::open(path, sidecar)?;
+    let mut scans = Vec::new();
+    while let Some(s) = stream.next_scan()? {
+        scans.push(s);
+    }
+    Ok(RecordedScans {
+        scans,
+        ..stream.summary()
+    })
 }
 
 #[cfg(test)]

@@ -18,7 +18,7 @@ mod window;
 use std::fmt;
 use std::path::Path;
 
-pub use stream::{FrameItem, FrameReader, RecordingReader};
+pub use stream::{ChunkSource, FrameItem, FrameReader, RecordingReader};
 pub use tcp::{TcpStats, SICK_PORTS};
 
 use crate::frame::{Dialect, Frame, FrameError};

@@ -165,6 +165,25 @@ pub(crate) fn next_packet<R: Read>(
 /// What [`FrameReader::next_frame`] gives: a frame, or a frame the framer dropped.
 pub type FrameItem = Result<RecordedFrame, (Direction, FrameError)>;
 
+/// Where a [`FrameReader`] gets its chunks: a [`RecordingReader`], or any closure handing
+/// them out (`Ok(None)` at the end).
+pub trait ChunkSource {
+    /// The next chunk, `None` at the end.
+    fn next_chunk(&mut self) -> Result<Option<Chunk>, RecordingError>;
+}
+
+impl<R: Read> ChunkSource for RecordingReader<R> {
+    fn next_chunk(&mut self) -> Result<Option<Chunk>, RecordingError> {
+        RecordingReader::next_chunk(self)
+    }
+}
+
+impl<F: FnMut() -> Result<Option<Chunk>, RecordingError>> ChunkSource for F {
+    fn next_chunk(&mut self) -> Result<Option<Chunk>, RecordingError> {
+        self()
+    }
+}
+
 /// The frames of a stream of chunks, each direction framed separately; frames of unknown
 /// direction are classified by command type.
 pub struct FrameReader<C> {
@@ -180,8 +199,8 @@ const DIRECTIONS: [Direction; 3] = [
     Direction::Unknown,
 ];
 
-impl<C: FnMut() -> Result<Option<Chunk>, RecordingError>> FrameReader<C> {
-    /// Frames the chunks `chunks` hands out (`Ok(None)` at the end).
+impl<C: ChunkSource> FrameReader<C> {
+    /// Frames the chunks `chunks` hands out.
     pub fn new(chunks: C) -> Self {
         Self {
             chunks,
@@ -201,7 +220,7 @@ impl<C: FnMut() -> Result<Option<Chunk>, RecordingError>> FrameReader<C> {
                 return Ok(None);
             }
             let queue = &mut self.queue;
-            match (self.chunks)()? {
+            match self.chunks.next_chunk()? {
                 Some(chunk) => {
                     let i = DIRECTIONS
                         .iter()
@@ -224,6 +243,11 @@ impl<C: FnMut() -> Result<Option<Chunk>, RecordingError>> FrameReader<C> {
                 }
             }
         }
+    }
+
+    /// The chunk source (a [`RecordingReader`]'s format, damage and TCP counters).
+    pub fn source(&self) -> &C {
+        &self.chunks
     }
 
     /// The framers' counters, summed over the directions.
