@@ -467,4 +467,44 @@ mod tests {
             "{w:?}"
         );
     }
+
+    proptest::proptest! {
+        /// Any log is refused or checked, never a panic; what is kept is in time order with
+        /// positive intervals and plausible speeds, and every reading left out is flagged.
+        #[test]
+        fn any_log_is_refused_or_kept_in_order(
+            rows in proptest::collection::vec(
+                (-0.0001f64..0.05, -0.00005f64..0.03, -30.0f64..30.0, -5.0f64..5.0, -0.5f64..0.5),
+                0..60,
+            ),
+            with_increments in proptest::bool::ANY,
+        ) {
+            // Times mostly increasing (a step may go back), so most logs reach the checks.
+            let mut t_s = 0.0;
+            let readings: Vec<OdometrySample> = rows
+                .iter()
+                .map(|&(step_s, dt_s, v_mps, omega_radps, dx)| OdometrySample {
+                    t_s: {
+                        t_s += step_s;
+                        t_s
+                    },
+                    dt_s,
+                    v_mps,
+                    omega_radps,
+                    delta: (dx, 0.0, omega_radps * dt_s),
+                })
+                .collect();
+            let mut l = log(readings);
+            l.increments_given = with_increments;
+            if let Ok(c) = check(&l) {
+                proptest::prop_assert!(c.readings.windows(2).all(|w| w[0].t_s < w[1].t_s));
+                proptest::prop_assert!(c.readings.iter().all(|r| r.dt_s > 0.0
+                    && r.v_mps.abs() <= MAX_SPEED_MPS
+                    && r.omega_radps.abs() <= MAX_YAW_RATE_RADPS));
+                let left_out = l.readings.len() - c.readings.len();
+                let flagged = c.findings.iter().filter(|f| f.kind != FindingKind::Gap).count();
+                proptest::prop_assert_eq!(left_out, flagged);
+            }
+        }
+    }
 }
