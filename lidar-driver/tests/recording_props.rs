@@ -2,23 +2,11 @@
 //! and the streamed read, however the source splits its reads, gives the frames, damage and
 //! errors of the in-memory read.
 
+mod common;
+
+use common::Trickle;
 use lidar_driver::recording::{FrameReader, Recording, RecordingReader};
 use proptest::prelude::*;
-
-/// A source that hands out at most `step` bytes per read.
-struct Trickle<'a> {
-    rest: &'a [u8],
-    step: usize,
-}
-
-impl std::io::Read for Trickle<'_> {
-    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.rest.len().min(out.len()).min(self.step);
-        out[..n].copy_from_slice(&self.rest[..n]);
-        self.rest = &self.rest[n..];
-        Ok(n)
-    }
-}
 
 fn magic() -> impl Strategy<Value = Vec<u8>> {
     prop_oneof![

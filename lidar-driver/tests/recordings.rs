@@ -227,18 +227,6 @@ fn a_truncated_sick_json_keeps_its_complete_records() {
     }
 }
 
-/// A source that hands out at most 7 bytes per read (every record and frame straddles reads).
-struct Trickle<'a>(&'a [u8]);
-
-impl std::io::Read for Trickle<'_> {
-    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.0.len().min(out.len()).min(7);
-        out[..n].copy_from_slice(&self.0[..n]);
-        self.0 = &self.0[n..];
-        Ok(n)
-    }
-}
-
 /// The streamed read of every real capture, fed 7 bytes at a time, gives the frames of the
 /// in-memory read, in order, with their times and directions.
 #[test]
@@ -247,7 +235,11 @@ fn streaming_gives_the_in_memory_frames_of_every_capture() {
     for name in [LMS511_JSON, LMS511_S2H, LMS111_JSON, TIM_PCAPNG] {
         let bytes = std::fs::read(capture(name)).unwrap();
         let whole = Recording::parse(&bytes).unwrap().frames();
-        let mut reader = RecordingReader::new(Trickle(&bytes)).unwrap();
+        let mut reader = RecordingReader::new(Trickle {
+            rest: &bytes,
+            step: 7,
+        })
+        .unwrap();
         let mut frames = FrameReader::new(move || reader.next_chunk());
         let mut got = Vec::new();
         let mut errors = 0usize;

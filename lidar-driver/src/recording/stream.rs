@@ -26,9 +26,27 @@ const DETECT_BYTES: usize = 64;
 
 enum Parser {
     Raw,
-    Pcap(PcapReader, Reassembler),
-    Pcapng(PcapngReader, Reassembler),
+    Capture(CaptureReader, Reassembler),
     Json(JsonReader),
+}
+
+/// The packet reader of a pcap or pcapng file.
+enum CaptureReader {
+    Pcap(PcapReader),
+    Pcapng(PcapngReader),
+}
+
+impl CaptureReader {
+    fn next_packet<R: Read>(
+        &mut self,
+        w: &mut Window<R>,
+        damage: &mut Vec<RecordingDamage>,
+    ) -> Result<Option<super::CapturedPacket>, RecordingError> {
+        match self {
+            CaptureReader::Pcap(p) => p.next_packet(w, damage),
+            CaptureReader::Pcapng(p) => p.next_packet(w, damage),
+        }
+    }
 }
 
 /// The chunks of a recording of any supported format, read as they are needed.
@@ -59,8 +77,14 @@ impl<R: Read> RecordingReader<R> {
         let format = RecordingFormat::detect(head);
         let parser = match format {
             RecordingFormat::Raw => Parser::Raw,
-            RecordingFormat::Pcap => Parser::Pcap(PcapReader::new(), Reassembler::default()),
-            RecordingFormat::Pcapng => Parser::Pcapng(PcapngReader::new(), Reassembler::default()),
+            RecordingFormat::Pcap => Parser::Capture(
+                CaptureReader::Pcap(PcapReader::new()),
+                Reassembler::default(),
+            ),
+            RecordingFormat::Pcapng => Parser::Capture(
+                CaptureReader::Pcapng(PcapngReader::new()),
+                Reassembler::default(),
+            ),
             RecordingFormat::SickJson => Parser::Json(JsonReader::new()),
         };
         Ok(Self {
@@ -86,7 +110,7 @@ impl<R: Read> RecordingReader<R> {
     /// TCP reassembly counters so far (pcap / pcapng only).
     pub fn tcp_stats(&self) -> Option<TcpStats> {
         match &self.parser {
-            Parser::Pcap(_, r) | Parser::Pcapng(_, r) => Some(r.stats),
+            Parser::Capture(_, r) => Some(r.stats),
             _ => None,
         }
     }
@@ -120,18 +144,7 @@ impl<R: Read> RecordingReader<R> {
                     self.finished = c.is_none();
                     return Ok(c);
                 }
-                Parser::Pcap(p, tcp) => match p.next_packet(w, &mut self.damage)? {
-                    Some(packet) => {
-                        tcp.push(&packet);
-                        self.ready.extend(tcp.take_chunks());
-                    }
-                    None => {
-                        tcp.finish();
-                        self.ready.extend(tcp.take_chunks());
-                        self.finished = true;
-                    }
-                },
-                Parser::Pcapng(p, tcp) => match p.next_packet(w, &mut self.damage)? {
+                Parser::Capture(p, tcp) => match p.next_packet(w, &mut self.damage)? {
                     Some(packet) => {
                         tcp.push(&packet);
                         self.ready.extend(tcp.take_chunks());
@@ -153,8 +166,7 @@ pub(crate) fn next_packet<R: Read>(
 ) -> Result<Option<super::CapturedPacket>, RecordingError> {
     let w = &mut reader.window;
     match &mut reader.parser {
-        Parser::Pcap(p, _) => p.next_packet(w, &mut reader.damage),
-        Parser::Pcapng(p, _) => p.next_packet(w, &mut reader.damage),
+        Parser::Capture(p, _) => p.next_packet(w, &mut reader.damage),
         _ => Err(RecordingError::Capture {
             offset: 0,
             what: "not a pcap or pcapng file",

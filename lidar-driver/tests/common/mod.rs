@@ -23,3 +23,19 @@ pub fn frames(bytes: &[u8]) -> Vec<(Dialect, Vec<u8>)> {
     assert_eq!(f.stats().garbage_bytes, 0);
     out
 }
+
+/// A source that hands out at most `step` bytes per read (records and frames straddle
+/// reads).
+pub struct Trickle<'a> {
+    pub rest: &'a [u8],
+    pub step: usize,
+}
+
+impl std::io::Read for Trickle<'_> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.rest.len().min(out.len()).min(self.step);
+        out[..n].copy_from_slice(&self.rest[..n]);
+        self.rest = &self.rest[n..];
+        Ok(n)
+    }
+}
