@@ -36,6 +36,10 @@ fn jsonl_has_one_object_per_scan_with_the_documented_keys() {
     assert_eq!(ch["count"], 1141);
     assert_eq!(ch["start_angle_deg"], -5.0);
     assert_eq!(ch["step_deg"], 0.1667);
+    // The real LMS511 at 25 Hz / 54 kHz: the exact step scan-input uses, 1/6 degree.
+    assert_eq!(v["measurement_frequency_hz"], 54_000.0);
+    let exact = ch["beam_step_deg"].as_f64().unwrap();
+    assert!((exact - 1.0 / 6.0).abs() < 1e-12, "{exact}");
     assert_eq!(ch["scale_factor"], 1.0);
     assert_eq!(ch["values"].as_array().unwrap().len(), 1141);
     assert_eq!(ch["values"][0], 0x0519);

@@ -16,6 +16,7 @@ use clap::{Parser, ValueEnum};
 use lidar_driver::framer::FramerStats;
 use lidar_driver::recording::{Direction, FrameReader, RecordingError, RecordingReader};
 use lidar_driver::{Answer, Request, ScanData, Telegram};
+use scan_input::BeamLayout;
 
 /// Output formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -223,6 +224,9 @@ fn scan_json(s: &ScanData<'_>, time_s: Option<f64>) -> serde_json::Value {
                 "count": c.len(),
                 "start_angle_deg": c.header.start_angle_1e4_deg as f64 / 10_000.0,
                 "step_deg": c.header.step_1e4_deg as f64 / 10_000.0,
+                // The step scan-input (the one telegram-to-scan conversion) uses: exact from
+                // the scan and shot frequencies when that rounds to the telegram's step.
+                "beam_step_deg": BeamLayout::of(h, &c.header).step_used_1e4_deg() / 10_000.0,
                 "scale_factor": c.header.scale_factor,
                 "scale_offset": c.header.scale_offset,
                 "values": c.values().collect::<Vec<u16>>(),
@@ -236,6 +240,7 @@ fn scan_json(s: &ScanData<'_>, time_s: Option<f64>) -> serde_json::Value {
         "serial_number": h.serial_number,
         "device_status": h.device_status,
         "scan_frequency_hz": h.scan_frequency_1e2_hz as f64 / 100.0,
+        "measurement_frequency_hz": h.measurement_frequency_100hz as f64 * 100.0,
         "time_since_startup_us": h.time_since_startup_us,
         "time_of_transmission_us": h.time_of_transmission_us,
         "channels": channels,
