@@ -50,6 +50,11 @@ pub trait Estimator {
     fn odometry(&mut self, sample: &OdometrySample);
     /// One scan; returns the estimate after it.
     fn scan(&mut self, scan: &LidarScan) -> EstimatorOutput;
+    /// The estimator's own measure of the time its last scan took, µs, where the caller's
+    /// clock would time something else (an external localiser's log); `None`: time the call.
+    fn last_update_us(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// Dead reckoning from odometry alone: the baseline every localiser must beat. It ignores

@@ -173,6 +173,11 @@ struct ReplayArgs {
     /// Estimator to replay.
     #[arg(long, value_enum, default_value = "localizer")]
     estimator: EstimatorArg,
+    /// Score another localiser's poses instead of running --estimator: a CSV with t_s,
+    /// est_x_m, est_y_m, est_theta_rad (world frame, one row per scan at its time) and
+    /// optionally sigma_x_m, sigma_y_m, sigma_theta_rad and update_us.
+    #[arg(long)]
+    estimates: Option<PathBuf>,
     /// Directory for estimates.csv and, with ground truth, trajectories.csv, metrics.json, plots and run.mcap.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -384,6 +389,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
     // with the recording.
     let options = replay::ReplayOptions {
         keep_scans: a.out.is_some(),
+        estimates: a.estimates.clone(),
     };
     let rep = replay::replay_with(&src, est, &options).map_err(|e| e.to_string())?;
     for w in &rep.warnings {

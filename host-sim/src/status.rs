@@ -18,6 +18,8 @@ pub enum EstimatorStatus {
     ScanUnusable(ScanInputError),
     /// The odometry-only baseline: scans are not used.
     Odometry,
+    /// Another localiser's pose, read from its estimates file (`replay --estimates`).
+    External,
 }
 
 impl EstimatorStatus {
@@ -49,6 +51,7 @@ impl EstimatorStatus {
             },
             EstimatorStatus::ScanUnusable(_) => "scan-unusable",
             EstimatorStatus::Odometry => "odometry",
+            EstimatorStatus::External => "external",
         }
     }
 

@@ -346,3 +346,64 @@ fn a_damaged_stream_loses_only_the_damaged_telegrams() {
         log.metrics().localizer.position_rms_m
     );
 }
+
+/// `replay --estimates`: another localiser's poses are scored by the same pairing and
+/// metrics. The replay's own `estimates.csv` (poses printed to 10 µm) scores as the replay
+/// itself; a file missing scans is refused, naming the first.
+#[test]
+fn another_localisers_estimates_score_as_the_replay_does() {
+    let (_, dir, _) = recorded_run(3);
+    let sources = ReplaySources::in_dir(dir.path()).unwrap();
+    let own = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
+    let est = dir.path().join("own-estimates.csv");
+    let mut buf = Vec::new();
+    replay::write_estimates_csv(&own.steps, &mut buf).unwrap();
+    std::fs::write(&est, &buf).unwrap();
+    let options = replay::ReplayOptions {
+        keep_scans: false,
+        estimates: Some(est.clone()),
+    };
+    let ext = replay::replay_with(&sources, EstimatorChoice::Localizer, &options).unwrap();
+    assert_eq!(ext.log.samples.len(), own.log.samples.len());
+    let (a, b) = (own.log.metrics(), ext.log.metrics());
+    for (name, x, y) in [
+        (
+            "position",
+            a.localizer.position_rms_m,
+            b.localizer.position_rms_m,
+        ),
+        (
+            "heading",
+            a.localizer.heading_rms_rad * 1e2,
+            b.localizer.heading_rms_rad * 1e2,
+        ),
+        ("along", a.localizer.along_rms_m, b.localizer.along_rms_m),
+        ("across", a.localizer.across_rms_m, b.localizer.across_rms_m),
+        (
+            "max",
+            a.localizer.max_position_error_m,
+            b.localizer.max_position_error_m,
+        ),
+    ] {
+        assert!((x - y).abs() < 2e-5, "{name}: own {x} vs scored {y}");
+    }
+    // The odometry baseline is the recording's, whatever the estimates.
+    assert_eq!(a.odometry.position_rms_m, b.odometry.position_rms_m);
+    assert!(ext.log.estimator.starts_with("external"));
+    // The file's own per-scan times are reported, not the time of reading a row.
+    let mean_own = own.steps.iter().map(|s| s.update_us).sum::<f64>() / own.steps.len() as f64;
+    let mean_ext = ext.steps.iter().map(|s| s.update_us).sum::<f64>() / ext.steps.len() as f64;
+    assert!(
+        (mean_own - mean_ext).abs() < 0.1,
+        "{mean_own} vs {mean_ext}"
+    );
+
+    // Half the rows dropped: refused, not scored on the last pose held.
+    let text = String::from_utf8(buf).unwrap();
+    let kept: Vec<&str> = text.lines().take(own.steps.len() / 2).collect();
+    std::fs::write(&est, kept.join("\n")).unwrap();
+    let e = replay::replay_with(&sources, EstimatorChoice::Localizer, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("has no row for") && e.contains("scans"), "{e}");
+}

@@ -105,8 +105,23 @@ impl CsvTable {
         Self::parse(path, &text)
     }
 
+    /// Reads a file of which only the `numeric` columns are numbers (others, e.g. a status
+    /// label, are read as "no value" and never refused).
+    pub fn read_columns(path: &Path, numeric: &[&str]) -> Result<Self, CsvError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CsvError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse_with(path, &text, Some(numeric))
+    }
+
     /// Parses text; `path` only names the source in errors.
     pub fn parse(path: &Path, text: &str) -> Result<Self, CsvError> {
+        Self::parse_with(path, text, None)
+    }
+
+    /// Parses text, every column as numbers or (`Some`) only the named ones.
+    fn parse_with(path: &Path, text: &str, numeric: Option<&[&str]>) -> Result<Self, CsvError> {
         let mut lines = text
             .lines()
             .enumerate()
@@ -117,6 +132,10 @@ impl CsvTable {
             });
         };
         let names: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
+        let is_numeric: Vec<bool> = names
+            .iter()
+            .map(|n| numeric.is_none_or(|keep| keep.contains(&n.as_str())))
+            .collect();
         let mut rows = Vec::new();
         let mut row_lines = Vec::new();
         for (i, line) in lines {
@@ -124,7 +143,7 @@ impl CsvTable {
             let mut row = Vec::with_capacity(names.len());
             for (k, cell) in line.split(',').enumerate() {
                 let cell = cell.trim();
-                let v = if cell.is_empty() {
+                let v = if cell.is_empty() || !is_numeric.get(k).copied().unwrap_or(true) {
                     f64::NAN
                 } else {
                     cell.parse::<f64>()

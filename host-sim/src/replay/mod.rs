@@ -9,6 +9,7 @@
 //! run's `f64` values exactly, and the odometry-alone baseline is integrated from the same
 //! readings by the same arc integration as the simulator's odometry.
 
+pub mod external;
 pub mod odometry_check;
 pub mod scan_source;
 pub mod truth;
@@ -30,6 +31,7 @@ use crate::session::EstimatorChoice;
 use crate::status::EstimatorStatus;
 use crate::vehicle::SimPose;
 
+use external::{EstimatesError, ExternalEstimates};
 use odometry_check::OdometryError;
 use scan_source::{ScanSourceError, ScanStream};
 
@@ -128,6 +130,8 @@ pub enum ReplayError {
     },
     /// Neither an initial pose nor ground truth to start from.
     NoInitialPose,
+    /// Another localiser's estimates file cannot be scored.
+    Estimates(EstimatesError),
     /// The odometry and the scans do not overlap in time.
     ClocksDisagree {
         /// First and last odometry time, s.
@@ -164,6 +168,7 @@ impl fmt::Display for ReplayError {
                 "the odometry (t = {o0:.3}…{o1:.3} s) and the scans (t = {s0:.3}…{s1:.3} s) do not overlap: they are on different clocks; give the scans' receive times (--scanner-times) or put the odometry on the scans' clock"
             ),
             ReplayError::Scenario(e) => write!(f, "{e}"),
+            ReplayError::Estimates(e) => write!(f, "{e}"),
             ReplayError::Map { path, source } => write!(
                 f,
                 "{} is not a usable loc-core map file: {source} (write one with `host-sim export-map`)",
@@ -182,6 +187,12 @@ impl std::error::Error for ReplayError {}
 impl From<ScanSourceError> for ReplayError {
     fn from(e: ScanSourceError) -> Self {
         ReplayError::Scans(e)
+    }
+}
+
+impl From<EstimatesError> for ReplayError {
+    fn from(e: EstimatesError) -> Self {
+        ReplayError::Estimates(e)
     }
 }
 
@@ -287,18 +298,24 @@ pub struct ScanSummary {
 }
 
 /// How a replay runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReplayOptions {
     /// Keep every scored scan in the log (for the MCAP file of `--out`; 2.3 kB per scan).
     /// Without it memory does not grow with the recording but for the per-scan results
     /// (≈ 0.3 kB per scan).
     pub keep_scans: bool,
+    /// Score another localiser's poses from this estimates file ([`external`]) instead of
+    /// running the chosen estimator: the recording, truth and metrics are the same.
+    pub estimates: Option<PathBuf>,
 }
 
 impl Default for ReplayOptions {
     /// Scans kept.
     fn default() -> Self {
-        Self { keep_scans: true }
+        Self {
+            keep_scans: true,
+            estimates: None,
+        }
     }
 }
 
@@ -357,13 +374,19 @@ pub fn replay_with(
         .map_or(initial.pose, |r| r.pose);
 
     let keep = options.keep_scans;
-    let (steps, kept, name) = match choice {
-        EstimatorChoice::OdometryOnly => {
+    let (steps, kept, name) = match (&options.estimates, choice) {
+        (Some(path), _) => {
+            let mut est = ExternalEstimates::read(path)?;
+            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            est.check_complete()?;
+            (steps, kept, est.name())
+        }
+        (None, EstimatorChoice::OdometryOnly) => {
             let mut est = OdometryOnly::default();
             let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
             (steps, kept, est.name())
         }
-        EstimatorChoice::Localizer => {
+        (None, EstimatorChoice::Localizer) => {
             let mut est = LocCoreEstimator::new(&map, &scenario);
             let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
             (steps, kept, est.name())
@@ -521,13 +544,16 @@ fn drive(
         }
         let t0 = Instant::now();
         let out = est.scan(&scan);
+        let update_us = est
+            .last_update_us()
+            .unwrap_or_else(|| t0.elapsed().as_secs_f64() * 1e6);
         steps.push(ReplayStep {
             t_s: scan.t_s,
             estimate: out.pose,
             sigma: out.sigma,
             status: out.status,
             odometry: odo_pose,
-            update_us: t0.elapsed().as_secs_f64() * 1e6,
+            update_us,
         });
         if keep_scans {
             kept.push(scan);
