@@ -12,7 +12,7 @@ use loc_core::filter::{OdometryIncrement, OdometryNoise};
 use loc_core::geometry::Pose2;
 use loc_core::localizer::{Localizer, LocalizerConfig};
 use loc_core::map::TunnelMap;
-use loc_core::matching::MatcherKind;
+use loc_core::matching::{MatcherKind, RoughnessModel};
 use loc_core::scan::{Scan, ScanGeometry, SensorSetup};
 use nalgebra::Matrix3;
 
@@ -66,6 +66,12 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
     // The matcher's covariance is scaled by the sensor's noise (floored: a noiseless
     // simulation must not claim infinite precision).
     cfg.matching.range_noise_sigma_m = (scenario.lidar.range_noise_m as f32).max(0.003);
+    // The walls as rough as the scenario makes them (on a vehicle: as the survey measured
+    // them): points on one stretch share its offset from the smooth map.
+    cfg.matching.roughness = RoughnessModel {
+        sigma_m: scenario.tunnel.roughness_sigma_m as f32,
+        patch_length_m: (2.0 * scenario.tunnel.roughness_correlation_m as f32).max(0.1),
+    };
     cfg
 }
 

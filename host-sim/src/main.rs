@@ -178,6 +178,10 @@ struct ReplayArgs {
     /// optionally sigma_x_m, sigma_y_m, sigma_theta_rad and update_us.
     #[arg(long)]
     estimates: Option<PathBuf>,
+    /// Also compute each scan's Cramér–Rao bound at the true pose and report it beside the
+    /// error (needs ground truth; `cramer_rao` in --json).
+    #[arg(long)]
+    bound: bool,
     /// Directory for estimates.csv and, with ground truth, trajectories.csv, metrics.json, plots and run.mcap.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -390,7 +394,11 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
     let options = replay::ReplayOptions {
         keep_scans: a.out.is_some(),
         estimates: a.estimates.clone(),
+        bound: a.bound,
     };
+    if a.bound && src.ground_truth.is_none() {
+        return Err("--bound needs ground truth (ground_truth.csv or --truth)".into());
+    }
     let rep = replay::replay_with(&src, est, &options).map_err(|e| e.to_string())?;
     for w in &rep.warnings {
         eprintln!("host-sim: warning: {w}");
@@ -401,6 +409,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         if has_truth {
             out(&MetricsJson::new(&rep.log, &m)
                 .with_warnings(&rep.warnings)
+                .with_bound(rep.bound)
                 .to_json())?;
         } else {
             return Err("no ground truth to score against: --json needs ground_truth.csv".into());
@@ -426,6 +435,20 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
                 sc.scored_scans
             ))?;
             out(&report::run_report(&rep.log, &m))?;
+            if let Some(b) = &rep.bound {
+                out(&format!(
+                    "Cramér–Rao bound of each scan at the true pose ({} scans): position {:.2} mm RMS (along {:.2}, across {:.2}), heading {:.3} mrad; the localiser's error over it: position {:.2}x, along {:.2}x, across {:.2}x, heading {:.2}x",
+                    b.scans,
+                    b.position_rms_m * 1e3,
+                    b.along_rms_m * 1e3,
+                    b.across_rms_m * 1e3,
+                    b.heading_rms_rad * 1e3,
+                    b.position_ratio,
+                    b.along_ratio,
+                    b.across_ratio,
+                    b.heading_ratio
+                ))?;
+            }
         } else if let Some(last) = rep.steps.last() {
             out(&format!(
                 "no ground truth: no metrics. Last estimate at t = {:.3} s: x {:.3} m, y {:.3} m, heading {:.4} rad, status {}",

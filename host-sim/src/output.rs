@@ -87,6 +87,10 @@ pub struct MetricsJson {
     /// What looked wrong in the inputs but did not stop the run (a replay's damaged scans,
     /// odometry gaps, …); empty when nothing did.
     pub warnings: Vec<String>,
+    /// A replay's per-scan Cramér–Rao bound beside its error (`replay --bound`); absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cramer_rao: Option<crate::replay::bound::BoundSummary>,
 }
 
 impl MetricsJson {
@@ -115,12 +119,19 @@ impl MetricsJson {
             status_counts,
             tracking_worst_error_sigmas: log.worst_tracking_sigmas().map(|w| w.error_sigmas),
             warnings: Vec::new(),
+            cramer_rao: None,
         }
     }
 
     /// Adds the warnings of the run or replay.
     pub fn with_warnings(mut self, warnings: &[String]) -> Self {
         self.warnings = warnings.to_vec();
+        self
+    }
+
+    /// Adds a replay's Cramér–Rao summary.
+    pub fn with_bound(mut self, bound: Option<crate::replay::bound::BoundSummary>) -> Self {
+        self.cramer_rao = bound;
         self
     }
 

@@ -9,6 +9,7 @@
 //! run's `f64` values exactly, and the odometry-alone baseline is integrated from the same
 //! readings by the same arc integration as the simulator's odometry.
 
+pub mod bound;
 pub mod external;
 pub mod odometry_check;
 pub mod scan_source;
@@ -229,6 +230,9 @@ pub struct ReplayStep {
     pub odometry: SimPose,
     /// Time the estimator took for the scan, microseconds.
     pub update_us: f64,
+    /// The scan's Cramér–Rao bound at the true pose (with [`ReplayOptions::bound`] and
+    /// ground truth at the scan; `None` where a direction is unobserved).
+    pub bound: Option<nalgebra::Matrix3<f64>>,
 }
 
 /// The result of a replay.
@@ -246,6 +250,9 @@ pub struct Replay {
     /// Things in the inputs that look wrong but do not stop the replay (e.g. odometry and
     /// scans on different clocks), for the user to read.
     pub warnings: Vec<String>,
+    /// The per-scan Cramér–Rao bound beside the error ([`ReplayOptions::bound`], with
+    /// ground truth).
+    pub bound: Option<bound::BoundSummary>,
 }
 
 /// Refuses odometry and scans that do not overlap in time: they are then on different
@@ -307,6 +314,9 @@ pub struct ReplayOptions {
     /// Score another localiser's poses from this estimates file ([`external`]) instead of
     /// running the chosen estimator: the recording, truth and metrics are the same.
     pub estimates: Option<PathBuf>,
+    /// Compute each scan's Cramér–Rao bound at the true pose ([`bound`]; needs ground
+    /// truth; about as costly as the localiser).
+    pub bound: bool,
 }
 
 impl Default for ReplayOptions {
@@ -315,6 +325,7 @@ impl Default for ReplayOptions {
         Self {
             keep_scans: true,
             estimates: None,
+            bound: false,
         }
     }
 }
@@ -374,21 +385,28 @@ pub fn replay_with(
         .map_or(initial.pose, |r| r.pose);
 
     let keep = options.keep_scans;
+    let mut bounds = match (&truth, options.bound) {
+        (Some(rows), true) => Some((bound::ScanBound::new(&map, &scenario), rows.as_slice())),
+        _ => None,
+    };
+    let mut drive = |est: &mut dyn Estimator, stream: &mut ScanStream| {
+        drive(est, initial, start, odometry, stream, keep, bounds.as_mut())
+    };
     let (steps, kept, name) = match (&options.estimates, choice) {
         (Some(path), _) => {
             let mut est = ExternalEstimates::read(path)?;
-            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            let (steps, kept) = drive(&mut est, &mut stream)?;
             est.check_complete()?;
             (steps, kept, est.name())
         }
         (None, EstimatorChoice::OdometryOnly) => {
             let mut est = OdometryOnly::default();
-            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            let (steps, kept) = drive(&mut est, &mut stream)?;
             (steps, kept, est.name())
         }
         (None, EstimatorChoice::Localizer) => {
             let mut est = LocCoreEstimator::new(&map, &scenario);
-            let (steps, kept) = drive(&mut est, initial, start, odometry, &mut stream, keep)?;
+            let (steps, kept) = drive(&mut est, &mut stream)?;
             (steps, kept, est.name())
         }
     };
@@ -431,6 +449,7 @@ pub fn replay_with(
         .iter()
         .filter_map(|(i, _)| kept.get(*i).cloned())
         .collect();
+    let scored_index: Vec<usize> = scored.iter().map(|(i, _)| *i).collect();
     let samples: Vec<Sample> = scored.into_iter().map(|(_, s)| s).collect();
     let source = ScanSummary {
         scans: steps.len(),
@@ -466,12 +485,22 @@ pub fn replay_with(
         raycast_time_s: 0.0,
     };
     warnings.extend(map_warning(&steps));
+    let bound = if options.bound {
+        let per_sample: Vec<_> = scored_index
+            .iter()
+            .map(|i| steps.get(*i).and_then(|s| s.bound))
+            .collect();
+        bound::summarise(&log.centerline, &log.samples, &per_sample)
+    } else {
+        None
+    };
     Ok(Replay {
         steps,
         log,
         source,
         map,
         warnings,
+        bound,
     })
 }
 
@@ -529,7 +558,9 @@ fn drive(
     odometry: &[crate::vehicle::odometry::OdometrySample],
     scans: &mut ScanStream,
     keep_scans: bool,
+    mut bound: Option<&mut (bound::ScanBound<'_>, &[truth_csv::TruthRow])>,
 ) -> Result<(Vec<ReplayStep>, Vec<crate::lidar::LidarScan>), ScanSourceError> {
+    let mut truth_cursor = 0usize;
     est.reset(initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad);
     let mut odo_pose = start;
     let mut next = 0usize;
@@ -554,6 +585,9 @@ fn drive(
             status: out.status,
             odometry: odo_pose,
             update_us,
+            bound: bound.as_mut().and_then(|(b, rows)| {
+                truth::pose_at(rows, scan.t_s, &mut truth_cursor).and_then(|p| b.at(&scan, p))
+            }),
         });
         if keep_scans {
             kept.push(scan);

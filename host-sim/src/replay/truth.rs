@@ -55,6 +55,12 @@ fn truth_at(
     Some((pose, lerp(dist(a, i), dist(b, i + 1), u), chainage))
 }
 
+/// The true pose at `t_s` (interpolated between the rows around it); `None` outside the
+/// log. `cursor` speeds up time-ordered queries (start at 0).
+pub fn pose_at(rows: &[TruthRow], t_s: f64, cursor: &mut usize) -> Option<SimPose> {
+    truth_at(rows, &[], t_s, cursor).map(|(pose, _, _)| pose)
+}
+
 /// The scored samples of a replay: `(index of the step, sample)` for every step inside the
 /// truth log. `start_chainage_m` seeds the centre-line projection (the drive's start).
 pub fn samples(

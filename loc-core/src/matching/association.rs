@@ -133,7 +133,12 @@ pub fn reproject<M: MapQuery>(
     found
 }
 
-fn paired(world: Point2, segment: Segment, pr: SegmentProjection, landmark: bool) -> Association {
+pub(super) fn paired(
+    world: Point2,
+    segment: Segment,
+    pr: SegmentProjection,
+    landmark: bool,
+) -> Association {
     let at_end = pr.t <= 0.0 || pr.t >= 1.0;
     let normal = if at_end && pr.distance_m > 1e-6 {
         world.sub(pr.closest).scale(1.0 / pr.distance_m)

@@ -4,6 +4,7 @@
 
 use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
 use super::information::{truncated_step, NormalEquations};
+use super::patches::PatchSums;
 use super::{apply_step, conclude, step_size, KBest, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
@@ -58,6 +59,15 @@ pub(super) fn run<M: MapQuery>(
                 }
             } else {
                 let mut eq = NormalEquations::default();
+                let mut patches = PatchSums::new(
+                    &config.roughness,
+                    config.range_noise_sigma_m,
+                    pose.theta_rad,
+                );
+                let w_unit = match config.k_best {
+                    KBest::TrimmedMean => 1.0 / delta_m,
+                    KBest::KthRanked => 1.0,
+                };
                 let selected = best_k
                     .iter()
                     .filter_map(|key| assoc.get(usize::from(key.1)));
@@ -67,8 +77,22 @@ pub(super) fn run<M: MapQuery>(
                         KBest::TrimmedMean => 1.0 / math::max(math::abs(r), delta_m),
                         KBest::KthRanked => 1.0,
                     };
-                    eq.add(a.world, pose.translation(), a.normal, r, w);
+                    let p = points
+                        .get(usize::from(a.point))
+                        .copied()
+                        .unwrap_or(Point2::ORIGIN);
+                    patches.add(
+                        &mut eq,
+                        p,
+                        a.world,
+                        pose.translation(),
+                        a.normal,
+                        r,
+                        w,
+                        w_unit,
+                    );
                 }
+                patches.apply(&mut eq, w_unit);
                 best = Some((pose, cost, eq));
                 damping *= 0.25;
             }

@@ -4,6 +4,7 @@
 
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
+use super::patches::PatchSums;
 use super::{apply_step, conclude, step_size, MatchConfig, MatchError, Outcome};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
@@ -31,12 +32,23 @@ pub(super) fn run<M: MapQuery>(
         iterations = it;
         schedule.run(map, points, pose, gate, assoc);
         let mut eq = NormalEquations::default();
+        let mut patches = PatchSums::new(
+            &config.roughness,
+            config.range_noise_sigma_m,
+            pose.theta_rad,
+        );
         for a in assoc
             .iter()
             .filter(|a| a.associated && a.distance_m <= gate)
         {
-            eq.add(a.world, pose.translation(), a.normal, a.residual_m(), 1.0);
+            let p = points
+                .get(usize::from(a.point))
+                .copied()
+                .unwrap_or(Point2::ORIGIN);
+            let t = pose.translation();
+            patches.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
         }
+        patches.apply(&mut eq, 1.0);
         if (eq.count as usize) < required {
             return Err(MatchError::TooFewAssociations {
                 associated: crate::math::saturating_u16(eq.count),

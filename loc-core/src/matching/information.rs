@@ -43,9 +43,9 @@ impl Default for NormalEquations {
 
 impl NormalEquations {
     /// Adds one residual: world point `q`, pose translation `t`, unit line normal `n`,
-    /// residual `r` (metres) and IRLS weight `w`.
+    /// residual `r` (metres) and IRLS weight `w`; returns its Jacobian `J`.
     #[inline]
-    pub fn add(&mut self, q: Point2, t: Point2, n: Point2, r: f32, w: f32) {
+    pub fn add(&mut self, q: Point2, t: Point2, n: Point2, r: f32, w: f32) -> Vector3<f32> {
         let j = Vector3::new(n.x_m, n.y_m, n.dot(q.sub(t).perp()));
         let jjt = j * j.transpose();
         self.information_points += jjt;
@@ -53,6 +53,7 @@ impl NormalEquations {
         self.gradient += j * (w * r);
         self.count = self.count.saturating_add(1);
         self.sum_sq_m2 += r * r;
+        j
     }
 
     /// RMS residual, metres (0 without residuals).

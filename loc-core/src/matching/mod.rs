@@ -50,21 +50,25 @@
 //! ([`UNOBSERVED_VARIANCE`]); the filter does not update them.
 
 mod association;
+mod fisher;
 mod guided;
 mod hausdorff;
 mod icp;
 mod information;
+mod patches;
 mod points;
 mod prealign;
 
 pub use association::{
     associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
 };
+pub use fisher::{scan_information, ScanInformation};
 pub use guided::{match_scan_with_prealign, GuidedMatch, COARSE_MATCH_POINTS};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, Observability, ObservableSubspace,
 };
+pub use patches::{PatchSums, RoughnessModel, PATCHES_PER_SIDE};
 pub use points::{select_match_points, MatchPoints, SelectionCounts};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
 
@@ -119,6 +123,9 @@ pub struct MatchConfig {
     pub icp_min_gate_m: f32,
     /// 1σ range noise of the lidar, metres: scales the covariance.
     pub range_noise_sigma_m: f32,
+    /// How far the real walls deviate from the smooth stored map, and over what length
+    /// (points on one stretch share its offset; see [`RoughnessModel`]).
+    pub roughness: RoughnessModel,
     /// Fewest points (and fewest associated inliers) for a match.
     pub min_points: u16,
     /// A direction is observed when its information is at least this many fully
@@ -142,6 +149,7 @@ impl Default for MatchConfig {
             association_gate_m: 1.0,
             icp_min_gate_m: 0.05,
             range_noise_sigma_m: 0.01,
+            roughness: RoughnessModel::default(),
             min_points: 12,
             min_information_points: 2.0,
             convergence_translation_m: 2.0e-4,

@@ -1,0 +1,84 @@
+//! The Fisher information of one scan at a pose, and its Cramér–Rao bound: how well the
+//! scan could fix the pose at best, under the matcher's own measurement model (range noise
+//! `σ_r` along each residual's normal, walls rough as [`super::RoughnessModel`] says).
+//!
+//! It is the yardstick of the localiser's accuracy (the per-scan bound beside the per-scan
+//! error; host-sim reports their ratio) and the fast objective of landmark design (a layout
+//! whose scans carry more information localises better). It uses the very accumulation
+//! the matchers solve with ([`NormalEquations`] and [`PatchSums`]), on every point given,
+//! each paired with its nearest map geometry at the pose.
+
+use nalgebra::Matrix3;
+
+use super::association::paired;
+use super::information::NormalEquations;
+use super::patches::PatchSums;
+use super::MatchConfig;
+use crate::geometry::{Point2, Pose2};
+use crate::map::MapQuery;
+use crate::strip::VehiclePoint;
+
+/// The information one scan carries about the pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanInformation {
+    /// Fisher information of `(x_m, y_m, theta_rad)`, world frame (m⁻², m⁻¹·rad⁻¹,
+    /// rad⁻²).
+    pub information: Matrix3<f32>,
+    /// Points paired with map geometry (the others carry nothing).
+    pub points: u16,
+}
+
+impl ScanInformation {
+    /// The Cramér–Rao bound: the inverse of the information, the least covariance of an
+    /// unbiased estimate of the pose from this scan alone; `None` when a direction is not
+    /// observed at all (e.g. along a smooth tunnel: the information is singular).
+    pub fn bound(&self) -> Option<Matrix3<f32>> {
+        let inv = self.information.try_inverse()?;
+        let ok =
+            inv.iter().all(|v| v.is_finite()) && inv.m11 > 0.0 && inv.m22 > 0.0 && inv.m33 > 0.0;
+        ok.then_some(inv)
+    }
+}
+
+/// The information of `points` (vehicle frame) at `pose` (world frame) against `map`: each
+/// point within `gate_m` of map geometry adds its point-to-line Jacobian, wall stretches
+/// share their roughness offset (`config.roughness`), all in units of `config`'s range
+/// noise.
+pub fn scan_information<M: MapQuery, P: VehiclePoint>(
+    map: &M,
+    points: &[P],
+    pose: Pose2,
+    config: &MatchConfig,
+    gate_m: f32,
+) -> ScanInformation {
+    let sigma = config.range_noise_sigma_m;
+    let mut eq = NormalEquations::default();
+    let mut patches = PatchSums::new(&config.roughness, sigma, pose.theta_rad);
+    let (s, c) = crate::math::sin_cos(pose.theta_rad);
+    let t = pose.translation();
+    for p in points.iter().map(VehiclePoint::vehicle_point) {
+        let q = Point2::new(
+            c * p.x_m - s * p.y_m + pose.x_m,
+            s * p.x_m + c * p.y_m + pose.y_m,
+        );
+        let Some(hit) = map.nearest(q, gate_m) else {
+            continue;
+        };
+        if !hit.projection.distance_m.is_finite() {
+            continue;
+        }
+        // The residual's normal exactly as the matchers pair the point.
+        let n = paired(q, hit.segment, hit.projection, false).normal;
+        patches.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0);
+    }
+    patches.apply(&mut eq, 1.0);
+    let inv_var = if sigma.is_finite() && sigma > 0.0 {
+        1.0 / (sigma * sigma)
+    } else {
+        0.0
+    };
+    ScanInformation {
+        information: eq.information_points * inv_var,
+        points: crate::math::saturating_u16(eq.count),
+    }
+}
