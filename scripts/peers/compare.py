@@ -126,7 +126,9 @@ def peer_list():
 
 def compare(work, jobs, drives, seeds):
     prepared = []
-    for (drive, args), seed, lm in itertools.product(drives, seeds, LANDMARKS):
+    # Seed by seed, so that an interrupted comparison has whole drives done (estimates are
+    # kept; a rerun only runs what is missing).
+    for seed, (drive, args), lm in itertools.product(seeds, drives, LANDMARKS):
         prepared.append(prepare(work, drive, args, seed, lm))
     results = {}
     with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -221,12 +223,17 @@ def tune(work, jobs):
                 cfg = dict(g["base"], **dict(zip(keys, values)))
                 for name, rec, scans, mp, ip in prepared:
                     f = pool.submit(peer_estimates, work, name, rec, scans, mp, g["peer"], cfg, "initial")
-                    futs[f] = (label, json.dumps(cfg, sort_keys=True), rec)
+                    futs[f] = (label, json.dumps(cfg, sort_keys=True), name, rec)
         for f in cf.as_completed(futs):
-            label, cfg, rec = futs[f]
-            scored.setdefault((label, cfg), []).append(score(rec, ["--estimates", str(f.result())])["position_rms_mm"])
+            label, cfg, name, rec = futs[f]
+            scored.setdefault((label, cfg), {})[name] = score(rec, ["--estimates", str(f.result())])["position_rms_mm"]
+    names = [p[0] for p in prepared]
+    print("position RMS (mm) on " + " / ".join(names) + ", from the initial pose:")
+    core = [score(p[1], [])["position_rms_mm"] for p in prepared]
+    print("loc-core: " + " / ".join(f"{r:.2f}" for r in core))
     best = {}
-    for (label, cfg), rms in sorted(scored.items()):
+    for (label, cfg), by_name in sorted(scored.items()):
+        rms = [by_name[n] for n in names]
         mean = sum(rms) / len(rms)
         print(f"{label}: {cfg} -> " + " / ".join(f"{r:.2f}" for r in rms) + f" mm (mean {mean:.2f})")
         if label not in best or mean < best[label][0]:
@@ -241,6 +248,7 @@ def main():
     ap.add_argument("--work", default=str(ROOT / "target" / "peers"))
     ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 2)))
     ap.add_argument("--quick", action="store_true", help="paper-10m seed 1 only")
+    ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS, help="seeds to run (default 1 2 3)")
     ap.add_argument("--tune", action="store_true", help="grid over the peers' settings (tuning.json)")
     ap.add_argument("--json", help="also write the results here")
     a = ap.parse_args()
@@ -249,7 +257,7 @@ def main():
     if a.tune:
         tune(work, a.jobs)
         return
-    drives, seeds = (DRIVES[:1], [1]) if a.quick else (DRIVES, SEEDS)
+    drives, seeds = (DRIVES[:1], [1]) if a.quick else (DRIVES, a.seeds)
     names, results = compare(work, a.jobs, drives, seeds)
     text, verdicts = table(names, results)
     print(text)

@@ -134,6 +134,7 @@ mod tests {
             status: crate::status::EstimatorStatus::Odometry,
             odometry: SimPose::default(),
             update_us: 0.0,
+            bound: None,
         }
     }
 

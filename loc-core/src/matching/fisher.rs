@@ -69,9 +69,16 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
         }
         // The residual's normal exactly as the matchers pair the point.
         let n = paired(q, hit.segment, hit.projection, false).normal;
-        patches.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0);
+        match patches.as_mut() {
+            Some(ps) => ps.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0),
+            None => {
+                eq.add(q, t, n, 0.0, 1.0);
+            }
+        }
     }
-    patches.apply(&mut eq, 1.0);
+    if let Some(ps) = &patches {
+        ps.apply(&mut eq, 1.0);
+    }
     let inv_var = if sigma.is_finite() && sigma > 0.0 {
         1.0 / (sigma * sigma)
     } else {
@@ -80,5 +87,71 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
     ScanInformation {
         information: eq.information_points * inv_var,
         points: crate::math::saturating_u16(eq.count),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+    use crate::map::TunnelMap;
+    use crate::matching::RoughnessModel;
+    use crate::testkit::TunnelSpec;
+
+    /// Points on both walls of a straight 4 m tunnel (vehicle frame, vehicle at x = 50).
+    fn wall_points(n: usize) -> heapless::Vec<Point2, 512> {
+        let mut v = heapless::Vec::new();
+        for i in 0..n {
+            let x = -10.0 + 20.0 * i as f32 / n as f32;
+            let y = if i % 2 == 0 { 2.0 } else { -2.0 };
+            let _ = v.push(Point2::new(x, y));
+        }
+        v
+    }
+
+    #[test]
+    fn a_smooth_tunnel_fixes_the_lateral_position_and_heading_but_not_the_chainage() {
+        let mut map = std::boxed::Box::new(TunnelMap::new());
+        TunnelSpec::straight(100.0).build_into(&mut map).unwrap();
+        let width = TunnelSpec::straight(100.0).width_m;
+        let mut pts = heapless::Vec::<Point2, 512>::new();
+        for p in wall_points(200) {
+            let _ = pts.push(Point2::new(p.x_m, p.y_m.signum() * width / 2.0));
+        }
+        let config = MatchConfig {
+            range_noise_sigma_m: 0.01,
+            roughness: RoughnessModel::SMOOTH,
+            ..MatchConfig::default()
+        };
+        let info = scan_information(&*map, &pts, Pose2::new(50.0, 0.0, 0.0), &config, 0.3);
+        assert_eq!(info.points, 200);
+        // 200 points of 1 cm: 2e6 m^-2 across, nothing along.
+        assert!(
+            (info.information.m22 - 2.0e6).abs() < 1.0e3,
+            "{}",
+            info.information
+        );
+        assert!(info.information.m11.abs() < 1.0);
+        assert!(
+            info.bound().is_none(),
+            "along a smooth tunnel nothing bounds the chainage"
+        );
+        // Rough walls: the same points say less (ten 2 m patches per wall, λ = 1).
+        let rough = MatchConfig {
+            roughness: RoughnessModel::SHOTCRETE,
+            ..config
+        };
+        let r = scan_information(&*map, &pts, Pose2::new(50.0, 0.0, 0.0), &rough, 0.3);
+        assert!(
+            r.information.m22 < 0.15 * info.information.m22,
+            "{}",
+            r.information
+        );
+        assert!(
+            r.information.m22 > 0.05 * info.information.m22,
+            "{}",
+            r.information
+        );
     }
 }

@@ -70,29 +70,32 @@ pub(super) fn run<M: MapQuery>(
                 };
                 let selected = best_k
                     .iter()
-                    .filter_map(|key| assoc.get(usize::from(key.1)));
-                for a in selected.filter(|a| a.associated) {
-                    let r = a.residual_m();
-                    let w = match config.k_best {
-                        KBest::TrimmedMean => 1.0 / math::max(math::abs(r), delta_m),
-                        KBest::KthRanked => 1.0,
-                    };
-                    let p = points
-                        .get(usize::from(a.point))
-                        .copied()
-                        .unwrap_or(Point2::ORIGIN);
-                    patches.add(
-                        &mut eq,
-                        p,
-                        a.world,
-                        pose.translation(),
-                        a.normal,
-                        r,
-                        w,
-                        w_unit,
-                    );
+                    .filter_map(|key| assoc.get(usize::from(key.1)))
+                    .filter(|a| a.associated);
+                let weight = |r: f32| match config.k_best {
+                    KBest::TrimmedMean => 1.0 / math::max(math::abs(r), delta_m),
+                    KBest::KthRanked => 1.0,
+                };
+                let t = pose.translation();
+                // Smooth walls take the plain loop: the firmware's budget has no room for
+                // the patches' bookkeeping when it models nothing.
+                match patches.as_mut() {
+                    None => {
+                        for a in selected {
+                            let r = a.residual_m();
+                            eq.add(a.world, t, a.normal, r, weight(r));
+                        }
+                    }
+                    Some(ps) => {
+                        for a in selected {
+                            let r = a.residual_m();
+                            let p = points.get(usize::from(a.point)).copied();
+                            let p = p.unwrap_or(Point2::ORIGIN);
+                            ps.add(&mut eq, p, a.world, t, a.normal, r, weight(r), w_unit);
+                        }
+                        ps.apply(&mut eq, w_unit);
+                    }
                 }
-                patches.apply(&mut eq, w_unit);
                 best = Some((pose, cost, eq));
                 damping *= 0.25;
             }

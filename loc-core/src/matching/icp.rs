@@ -37,18 +37,25 @@ pub(super) fn run<M: MapQuery>(
             config.range_noise_sigma_m,
             pose.theta_rad,
         );
-        for a in assoc
+        let inliers = assoc
             .iter()
-            .filter(|a| a.associated && a.distance_m <= gate)
-        {
-            let p = points
-                .get(usize::from(a.point))
-                .copied()
-                .unwrap_or(Point2::ORIGIN);
-            let t = pose.translation();
-            patches.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
+            .filter(|a| a.associated && a.distance_m <= gate);
+        let t = pose.translation();
+        match patches.as_mut() {
+            None => {
+                for a in inliers {
+                    eq.add(a.world, t, a.normal, a.residual_m(), 1.0);
+                }
+            }
+            Some(ps) => {
+                for a in inliers {
+                    let p = points.get(usize::from(a.point)).copied();
+                    let p = p.unwrap_or(Point2::ORIGIN);
+                    ps.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
+                }
+                ps.apply(&mut eq, 1.0);
+            }
         }
-        patches.apply(&mut eq, 1.0);
         if (eq.count as usize) < required {
             return Err(MatchError::TooFewAssociations {
                 associated: crate::math::saturating_u16(eq.count),

@@ -45,12 +45,11 @@ pub struct RoughnessModel {
 }
 
 impl Default for RoughnessModel {
-    /// Shotcrete: 1 cm, correlated over a metre.
+    /// Smooth walls ([`RoughnessModel::SMOOTH`]): the plain point-to-line model, at no
+    /// cost. Set the walls' roughness where they are rough (host-sim sets the scenario's;
+    /// on a vehicle, the survey's).
     fn default() -> Self {
-        Self {
-            sigma_m: 0.01,
-            patch_length_m: 2.0,
-        }
+        Self::SMOOTH
     }
 }
 
@@ -58,6 +57,12 @@ impl RoughnessModel {
     /// Smooth walls: every point independent.
     pub const SMOOTH: Self = Self {
         sigma_m: 0.0,
+        patch_length_m: 2.0,
+    };
+
+    /// Shotcrete as host-sim's rough tunnels make it: 1 cm, correlated over a metre.
+    pub const SHOTCRETE: Self = Self {
+        sigma_m: 0.01,
         patch_length_m: 2.0,
     };
 
@@ -91,24 +96,21 @@ pub struct PatchSums {
     /// Heading of the pose the points were placed with: patch normals and bins follow it.
     sin_cos: (f32, f32),
     inv_length: f32,
-    lambda: Option<f32>,
+    lambda: f32,
 }
 
 impl PatchSums {
     /// Empty sums for points placed at heading `theta_rad` (world frame), with range noise
-    /// `range_sigma_m` and the roughness `model`.
-    pub fn new(model: &RoughnessModel, range_sigma_m: f32, theta_rad: f32) -> Self {
-        let lambda = model.lambda(range_sigma_m);
-        Self {
+    /// `range_sigma_m` and the roughness `model`; `None` for smooth walls, where
+    /// [`NormalEquations::add`] alone is the model (and nothing of this 2.3 kB is touched).
+    pub fn new(model: &RoughnessModel, range_sigma_m: f32, theta_rad: f32) -> Option<Self> {
+        let lambda = model.lambda(range_sigma_m)?;
+        Some(Self {
             patches: [Patch::default(); 2 * PATCHES_PER_SIDE],
             sin_cos: crate::math::sin_cos(theta_rad),
-            inv_length: if lambda.is_some() {
-                1.0 / model.patch_length_m
-            } else {
-                0.0
-            },
+            inv_length: 1.0 / model.patch_length_m,
             lambda,
-        }
+        })
     }
 
     /// Adds one residual to `eq` and to its patch: vehicle-frame point `p` (which patch),
@@ -129,9 +131,6 @@ impl PatchSums {
         w_unit: f32,
     ) {
         let j = eq.add(q, t, n, r, w);
-        if self.lambda.is_none() {
-            return;
-        }
         let left = p.y_m >= 0.0;
         // The patch's wall normal in the world: the vehicle's left (or right) axis.
         let (s, c) = self.sin_cos;
@@ -155,11 +154,9 @@ impl PatchSums {
     }
 
     /// Takes every patch's shared offset out of `eq` (see the module docs); `w_unit` as in
-    /// [`PatchSums::add`]. Without roughness `eq` is unchanged.
+    /// [`PatchSums::add`].
     pub fn apply(&self, eq: &mut NormalEquations, w_unit: f32) {
-        let Some(lambda) = self.lambda else {
-            return;
-        };
+        let lambda = self.lambda;
         let mut weighted = Matrix3::zeros();
         let mut gradient = Vector3::zeros();
         let mut information = Matrix3::zeros();
@@ -187,18 +184,17 @@ mod tests {
         for i in 0..n {
             let x = length_m * i as f32 / n as f32;
             let p = Point2::new(x, 2.0);
-            sums.add(
-                &mut eq,
-                p,
-                p,
-                Point2::ORIGIN,
-                Point2::new(0.0, 1.0),
-                0.0,
-                1.0,
-                1.0,
-            );
+            let n = Point2::new(0.0, 1.0);
+            match sums.as_mut() {
+                Some(s) => s.add(&mut eq, p, p, Point2::ORIGIN, n, 0.0, 1.0, 1.0),
+                None => {
+                    eq.add(p, Point2::ORIGIN, n, 0.0, 1.0);
+                }
+            }
         }
-        sums.apply(&mut eq, 1.0);
+        if let Some(s) = &sums {
+            s.apply(&mut eq, 1.0);
+        }
         eq
     }
 
