@@ -249,6 +249,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 2)))
     ap.add_argument("--quick", action="store_true", help="paper-10m seed 1 only")
     ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS, help="seeds to run (default 1 2 3)")
+    ap.add_argument("--drives", nargs="+", default=[d for d, _ in DRIVES], help="drives to run (default all)")
     ap.add_argument("--tune", action="store_true", help="grid over the peers' settings (tuning.json)")
     ap.add_argument("--json", help="also write the results here")
     a = ap.parse_args()
@@ -257,7 +258,8 @@ def main():
     if a.tune:
         tune(work, a.jobs)
         return
-    drives, seeds = (DRIVES[:1], [1]) if a.quick else (DRIVES, a.seeds)
+    chosen = [d for d in DRIVES if d[0] in a.drives]
+    drives, seeds = (DRIVES[:1], [1]) if a.quick else (chosen, a.seeds)
     names, results = compare(work, a.jobs, drives, seeds)
     text, verdicts = table(names, results)
     print(text)
