@@ -54,12 +54,23 @@ fn recorded_run(
 ) {
     let mut s = named("paper-10m").unwrap();
     s.seed = seed;
+    recorded(&s)
+}
+
+/// A localised run of `s`, recorded into a temporary directory (with the files written).
+fn recorded(
+    s: &host_sim::scenario::Scenario,
+) -> (
+    host_sim::closed_loop::RunLog,
+    tempfile::TempDir,
+    Vec<std::path::PathBuf>,
+) {
     let options = RunOptions {
         keep_scans: true,
         progress: None,
     };
-    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).unwrap();
-    let (_, map_file) = record::scenario_map(&s).unwrap();
+    let log = run_scenario(s, EstimatorChoice::Localizer, &options).unwrap();
+    let (_, map_file) = record::scenario_map(s).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let written = record::write_recording(dir.path(), &log, &map_file).unwrap();
     (log, dir, written)
@@ -268,14 +279,7 @@ fn a_recording_of_a_csv_centre_line_is_self_contained() {
     let example = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/s-bend-400m.toml");
     let mut s = host_sim::scenario::Scenario::from_file(std::path::Path::new(example)).unwrap();
     s.drive.end_m = s.drive.start_m + 15.0;
-    let options = RunOptions {
-        keep_scans: true,
-        progress: None,
-    };
-    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).unwrap();
-    let (_, map_file) = record::scenario_map(&s).unwrap();
-    let dir = tempfile::tempdir().unwrap();
-    let written = record::write_recording(dir.path(), &log, &map_file).unwrap();
+    let (log, dir, written) = recorded(&s);
     assert!(written
         .iter()
         .any(|p| p.ends_with(host_sim::scenario::CENTERLINE_COPY)));
