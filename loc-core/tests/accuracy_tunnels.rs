@@ -19,7 +19,7 @@ use loc_core::localizer::{Localizer, LocalizerConfig, Status};
 use loc_core::map::TunnelMap;
 use loc_core::matching::{
     match_scan_with_prealign, select_match_points, MatchConfig, MatchPoints, MatchResult,
-    MatchWorkspace, MatcherKind, PrealignConfig,
+    MatchWorkspace, MatcherKind, PositionPrior, PrealignConfig,
 };
 use loc_core::math;
 use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
@@ -104,7 +104,7 @@ fn stages(t: &Tunnel, scan: &Scan, guess: Pose2, matcher: MatcherKind) -> MatchR
         &strip,
         &selected,
         guess,
-        f32::INFINITY,
+        &PositionPrior::UNKNOWN,
         &PrealignConfig::default(),
         &config,
         &mut ws,

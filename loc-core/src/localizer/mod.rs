@@ -37,6 +37,7 @@ use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
     match_scan_with_prealign, select_match_points, MatchPoints, MatchResult, MatchWorkspace,
+    PositionPrior,
 };
 use crate::scan::{Scan, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
@@ -201,7 +202,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             &strip,
             &self.match_points,
             ekf.pose(),
-            position_sd_m(&ekf.covariance()),
+            &PositionPrior::from_covariance(&ekf.covariance()),
             &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
@@ -311,11 +312,6 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn config(&self) -> &LocalizerConfig {
         &self.config
     }
-}
-
-/// A bound on the position's standard deviation, metres: `√(σx² + σy²)`.
-pub fn position_sd_m(p: &Matrix3<f32>) -> f32 {
-    crate::math::sqrt(crate::math::max(p.m11 + p.m22, 0.0))
 }
 
 /// The largest standard deviation of the position, metres: the square root of the larger

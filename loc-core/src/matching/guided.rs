@@ -10,8 +10,11 @@
 //!
 //! In steady tracking (a prediction good to a few centimetres) both pre-alignments are
 //! skipped; the second match runs only after a large along-tunnel error. A shift beyond
-//! `max_shift_sigmas` prediction standard deviations is not applied (a cluster matched to
-//! the wrong landmark).
+//! `max_shift_sigmas` standard deviations of the prediction **in the shift's direction** is
+//! not applied (a cluster matched to the wrong landmark): near a tunnel's end, or wherever
+//! the walls observe the lateral position weakly, the prediction can be uncertain sideways
+//! and still sure along the tunnel, and a look-alike shift of a landmark's tooth along the
+//! tunnel must not pass because of the sideways uncertainty.
 //!
 //! When the prediction is poor (the pre-alignment path), the pull-in runs **coarse to
 //! fine**: the matches of steps 1 and 2 use every n-th selected point (at most
@@ -23,12 +26,17 @@
 
 use super::{match_scan, prealign_along_tunnel, MatchConfig, MatchError, MatchResult};
 use super::{MatchWorkspace, PrealignConfig, PrealignShift};
+use nalgebra::{Matrix2, Matrix3};
+
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
 use crate::strip::{PointLabel, StripSummary, VehiclePoint};
 
 /// Most points of a coarse match (see the module docs).
-pub const COARSE_MATCH_POINTS: usize = 64;
+pub const COARSE_MATCH_POINTS: usize = 48;
+
+/// A coarse match converges at this many times the final match's step tolerances.
+pub const COARSE_CONVERGENCE_FACTOR: f32 = 10.0;
 
 /// A guided match and the pre-alignment that started its final run, if any.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,11 +49,61 @@ pub struct GuidedMatch {
     pub rematched: bool,
 }
 
+/// The predicted position's uncertainty, as the pre-alignment judges shifts by it: the
+/// `(x, y)` covariance of the prediction, world frame, m².
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PositionPrior {
+    covariance_m2: Matrix2<f32>,
+}
+
+impl PositionPrior {
+    /// Nothing known about the prediction: every shift is plausible.
+    pub const UNKNOWN: Self = Self {
+        covariance_m2: Matrix2::new(f32::INFINITY, 0.0, 0.0, f32::INFINITY),
+    };
+
+    /// The position block of a filter covariance `(x_m, y_m, theta_rad)`, world frame.
+    pub fn from_covariance(p: &Matrix3<f32>) -> Self {
+        Self {
+            covariance_m2: p.fixed_view::<2, 2>(0, 0).into_owned(),
+        }
+    }
+
+    /// The same standard deviation `sd_m` (metres) in every direction.
+    pub fn isotropic(sd_m: f32) -> Self {
+        let v = sd_m * sd_m;
+        Self {
+            covariance_m2: Matrix2::new(v, 0.0, 0.0, v),
+        }
+    }
+
+    /// `√(σx² + σy²)`, metres: bounds the standard deviation in any direction.
+    pub fn sd_m(&self) -> f32 {
+        let c = &self.covariance_m2;
+        crate::math::sqrt(crate::math::max(c.m11 + c.m22, 0.0))
+    }
+
+    /// The standard deviation along `direction` (world frame, any length but zero), metres;
+    /// NaN when unknown (an infinite or degenerate covariance, a zero direction).
+    pub fn sd_along_m(&self, direction: Point2) -> f32 {
+        let n_sq = direction.norm_sq();
+        let c = &self.covariance_m2;
+        if !(n_sq > 0.0 && c.iter().all(|v| v.is_finite())) {
+            return f32::NAN;
+        }
+        let (x, y) = (direction.x_m, direction.y_m);
+        let v = (c.m11 * x * x + 2.0 * c.m12 * x * y + c.m22 * y * y) / n_sq;
+        crate::math::sqrt(crate::math::max(v, 0.0))
+    }
+}
+
 /// Matches `selected` (vehicle frame, from [`super::select_match_points`]) against `map`,
 /// pre-aligning on the landmark clusters of `points`/`labels` (the whole scan in beam order
-/// and its stripping labels) as described in the module docs. `prior_position_sd_m` is the
-/// predicted position's standard deviation, metres (`f32::INFINITY` if unknown): when it is
-/// below a third of `prealign.min_shift_m` the pre-alignment is skipped.
+/// and its stripping labels) as described in the module docs. `prior` is the predicted
+/// position's uncertainty ([`PositionPrior::UNKNOWN`] if unknown): when its
+/// [`PositionPrior::sd_m`] is below a third of `prealign.min_shift_m` the pre-alignment is
+/// skipped, and a shift beyond `prealign.max_shift_sigmas` of its
+/// [`PositionPrior::sd_along_m`] is not applied.
 #[allow(clippy::too_many_arguments)]
 pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     map: &M,
@@ -54,14 +112,15 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     strip: &StripSummary,
     selected: &[Point2],
     predicted: Pose2,
-    prior_position_sd_m: f32,
+    prior: &PositionPrior,
     prealign: &PrealignConfig,
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
     // A prediction known to within a third of `min_shift_m` cannot profit from a
     // pre-alignment (it would be ignored anyway): skip its cost.
-    if prior_position_sd_m.is_finite() && 3.0 * prior_position_sd_m < prealign.min_shift_m {
+    let prior_sd_m = prior.sd_m();
+    if prior_sd_m.is_finite() && 3.0 * prior_sd_m < prealign.min_shift_m {
         return Ok(GuidedMatch {
             result: match_scan(map, selected, predicted, config, workspace)?,
             prealign: None,
@@ -80,14 +139,28 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     // following it would lock the estimate confidently onto a wrong position.
     let plausible = |s: &PrealignShift| {
         let n = s.shift_world.norm();
-        let limit_m = prealign.max_shift_sigmas * prior_position_sd_m;
+        let limit_m = prealign.max_shift_sigmas * prior.sd_along_m(s.shift_world);
         // An unknown (NaN) limit limits nothing.
         n > prealign.min_shift_m && (n <= limit_m || limit_m.is_nan())
+    };
+    // With few points the coarse set is the whole set and its match is the final one.
+    let whole = coarse.len() == selected.len();
+    // Otherwise the coarse matches only pull in: the final match refines their result, so
+    // they stop at a coarser tolerance instead of iterating to full precision on a
+    // quarter of the points.
+    let coarse_config = if whole {
+        *config
+    } else {
+        MatchConfig {
+            convergence_translation_m: COARSE_CONVERGENCE_FACTOR * config.convergence_translation_m,
+            convergence_rotation_rad: COARSE_CONVERGENCE_FACTOR * config.convergence_rotation_rad,
+            ..*config
+        }
     };
     let first_shift =
         prealign_along_tunnel(map, points, labels, strip, predicted, prealign).filter(plausible);
     let start = first_shift.map_or(predicted, |s| s.pose);
-    let Ok(first) = match_scan(map, &coarse, start, config, workspace) else {
+    let Ok(first) = match_scan(map, &coarse, start, &coarse_config, workspace) else {
         // Too few coarse points or no coarse convergence: the full set decides alone.
         return Ok(GuidedMatch {
             result: match_scan(map, selected, start, config, workspace)?,
@@ -95,8 +168,6 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
             rematched: false,
         });
     };
-    // With few points the coarse set is the whole set and its match is the final one.
-    let whole = coarse.len() == selected.len();
     let refine = |coarse_result: MatchResult, workspace: &mut MatchWorkspace| {
         if whole {
             Ok(coarse_result)
@@ -104,10 +175,14 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
             match_scan(map, selected, coarse_result.pose, config, workspace)
         }
     };
-    let again =
-        prealign_along_tunnel(map, points, labels, strip, first.pose, prealign).filter(plausible);
+    // A first pre-alignment that found its shift needs no second one.
+    let again = if first_shift.is_some() {
+        None
+    } else {
+        prealign_along_tunnel(map, points, labels, strip, first.pose, prealign).filter(plausible)
+    };
     if let Some(shift) = again {
-        if let Ok(second) = match_scan(map, &coarse, shift.pose, config, workspace) {
+        if let Ok(second) = match_scan(map, &coarse, shift.pose, &coarse_config, workspace) {
             return Ok(GuidedMatch {
                 result: refine(second, workspace)?,
                 prealign: Some(shift),

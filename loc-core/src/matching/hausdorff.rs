@@ -25,7 +25,8 @@ pub(super) fn run<M: MapQuery>(
     } else {
         0.8
     };
-    let k = ((k_fraction * m as f32 + 0.5) as usize).clamp(1, m.max(1));
+    let mut k = ((k_fraction * m as f32 + 0.5) as usize).clamp(1, m.max(1));
+    let explained_m = config.explained_distance_m();
     let required = usize::from(config.min_points.max(3));
     // IRLS floor: residuals below the noise all weigh the same.
     let delta_m = math::max(config.range_noise_sigma_m, 1.0e-3);
@@ -39,6 +40,14 @@ pub(super) fn run<M: MapQuery>(
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
         let associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
+        if it == 1 && explained_m > 0.0 {
+            // Fixed for the whole match, so that the costs compared stay comparable.
+            let within = assoc
+                .iter()
+                .filter(|a| a.associated && a.distance_m <= explained_m)
+                .count();
+            k = k.max(within).min(m.max(1));
+        }
         let kth = select_k_best(assoc, keys, k).unwrap_or(config.association_gate_m);
         let best_k = keys.get(..k).unwrap_or_default();
         let cost = match config.k_best {

@@ -63,7 +63,10 @@ pub use association::{
     associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
 };
 pub use fisher::{scan_information, ScanInformation};
-pub use guided::{match_scan_with_prealign, GuidedMatch, COARSE_MATCH_POINTS};
+pub use guided::{
+    match_scan_with_prealign, GuidedMatch, PositionPrior, COARSE_CONVERGENCE_FACTOR,
+    COARSE_MATCH_POINTS,
+};
 pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, Observability, ObservableSubspace,
@@ -115,6 +118,14 @@ pub struct MatchConfig {
     pub k_best: KBest,
     /// K as a fraction of the points, `(0, 1]` (Hausdorff only); the paper uses 0.8.
     pub k_fraction: f32,
+    /// K is never below the number of points whose distance at the start of the match is
+    /// within this many `√(σ_r² + σ_w²)` (range noise and wall roughness): points the
+    /// measurement model explains are not trimmed (Hausdorff only; 0: always the paper's
+    /// `k_fraction · m`). In a scan that fits the map the fixed fraction throws away a
+    /// fifth of good points, the farthest wall points first (their residuals grow most
+    /// with a heading error); where landmarks are bent or missing, the fraction still
+    /// trims them.
+    pub keep_within_sigmas: f32,
     /// Iteration limit.
     pub max_iterations: u16,
     /// Points farther than this from any map geometry are unassociated, metres.
@@ -145,6 +156,7 @@ impl Default for MatchConfig {
             matcher: MatcherKind::Hausdorff,
             k_best: KBest::TrimmedMean,
             k_fraction: 0.8,
+            keep_within_sigmas: 2.0,
             max_iterations: 30,
             association_gate_m: 1.0,
             icp_min_gate_m: 0.05,
@@ -171,6 +183,18 @@ impl MatchConfig {
             min_information_per_m2: self.min_information_per_m2(),
             rotation_scale_m: self.rotation_scale_m,
         }
+    }
+
+    /// The distance below which a point counts as explained by the measurement model
+    /// ([`MatchConfig::keep_within_sigmas`] × `√(σ_r² + σ_w²)`), metres; 0 when disabled.
+    pub fn explained_distance_m(&self) -> f32 {
+        let k = self.keep_within_sigmas;
+        if !(k.is_finite() && k > 0.0) {
+            return 0.0;
+        }
+        let w = self.roughness.sigma_m;
+        let w_sq = if w.is_finite() { w * w } else { 0.0 };
+        k * crate::math::sqrt(self.sigma_sq_m2() + w_sq)
     }
 
     fn sigma_sq_m2(&self) -> f32 {

@@ -127,7 +127,7 @@ impl MapQuery for BruteMap {
 
 /// Strip, select, pre-align, match: the pipeline the localizer runs.
 fn pipeline(map: &BruteMap, truth: Pose2, guess: Pose2, config: &MatchConfig) -> MatchResult {
-    guided(map, truth, guess, f32::INFINITY, config).result
+    guided(map, truth, guess, PositionPrior::UNKNOWN, config).result
 }
 
 /// [`pipeline`] with the prediction's position standard deviation, returning the whole
@@ -136,7 +136,7 @@ fn guided(
     map: &BruteMap,
     truth: Pose2,
     guess: Pose2,
-    prior_sd_m: f32,
+    prior: PositionPrior,
     config: &MatchConfig,
 ) -> GuidedMatch {
     let pts = map.scan(truth, 0.01, 7);
@@ -152,7 +152,7 @@ fn guided(
         &strip,
         &sel,
         guess,
-        prior_sd_m,
+        &prior,
         &PrealignConfig::default(),
         config,
         &mut ws,
@@ -167,13 +167,41 @@ fn implausible_prealignment_is_not_applied() {
     let guess = Pose2::new(20.5, 0.3, 0.02);
     let cfg = MatchConfig::default();
     // Nothing known about the prediction: the 0.5 m shift is taken and the pose recovered.
-    let free = guided(&map, truth, guess, f32::INFINITY, &cfg);
+    let free = guided(&map, truth, guess, PositionPrior::UNKNOWN, &cfg);
     assert!(free.prealign.is_some(), "{free:?}");
     assert_close(&free.result, truth, 0.01, 0.2f32.to_radians());
     // A prediction claimed good to 5 cm cannot be 0.5 m off: the shift is refused (a
     // cluster on the wrong landmark looks just like this).
-    let tight = guided(&map, truth, guess, 0.05, &cfg);
+    let tight = guided(&map, truth, guess, PositionPrior::isotropic(0.05), &cfg);
     assert!(tight.prealign.is_none(), "{tight:?}");
+    // Uncertain by 0.3 m sideways but sure to 5 cm along the tunnel (x): the along shift is
+    // judged by the along uncertainty, and refused. (Judged by the total, 4 × 0.3 m would
+    // have let it through.)
+    let sideways = PositionPrior::from_covariance(&nalgebra::Matrix3::from_diagonal(
+        &nalgebra::Vector3::new(0.05 * 0.05, 0.3 * 0.3, 1e-4),
+    ));
+    assert!((sideways.sd_along_m(Point2::new(-2.0, 0.0)) - 0.05).abs() < 1e-6);
+    let refused = guided(&map, truth, guess, sideways, &cfg);
+    assert!(refused.prealign.is_none(), "{refused:?}");
+}
+
+#[test]
+fn position_prior_in_a_direction() {
+    let p = PositionPrior::from_covariance(&nalgebra::Matrix3::new(
+        0.04, 0.03, 0.0, //
+        0.03, 0.09, 0.0, //
+        0.0, 0.0, 1e-4,
+    ));
+    assert!((p.sd_m() - 0.13f32.sqrt()).abs() < 1e-6);
+    assert!((p.sd_along_m(Point2::new(3.0, 0.0)) - 0.2).abs() < 1e-6);
+    assert!((p.sd_along_m(Point2::new(0.0, -1.0)) - 0.3).abs() < 1e-6);
+    // (1, 1)/√2: (0.04 + 0.06 + 0.09) / 2.
+    assert!((p.sd_along_m(Point2::new(1.0, 1.0)) - 0.095f32.sqrt()).abs() < 1e-6);
+    assert!(p.sd_along_m(Point2::ORIGIN).is_nan());
+    assert!(PositionPrior::UNKNOWN
+        .sd_along_m(Point2::new(1.0, 0.0))
+        .is_nan());
+    assert!(PositionPrior::UNKNOWN.sd_m().is_infinite());
 }
 
 fn assert_close(r: &MatchResult, truth: Pose2, tol_m: f32, tol_rad: f32) {
