@@ -145,8 +145,7 @@ impl<'m> Controller<'m> {
             None => {
                 let [sx, sy, sth] = UNMEASURED_MOTION_SIGMA;
                 let q = Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, sth * sth));
-                self.localizer
-                    .predict_odometry_with_covariance(&self.motion, &q)
+                self.localizer.predict_motion(&self.motion, &q)
             }
         };
     }

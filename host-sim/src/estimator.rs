@@ -40,14 +40,17 @@ pub fn sensor_setup(lidar: &LidarSpec) -> SensorSetup {
     }
 }
 
-/// The odometry noise model a scenario tells the localiser to expect (loc-core's random walk
-/// in distance, see [`OdometryNoise`]).
+/// The odometry noise model a scenario tells the localiser to expect (loc-core's scale
+/// state and random walk in distance, see [`OdometryNoise`]).
 pub fn odometry_noise(scenario: &Scenario) -> OdometryNoise {
     let c = &scenario.localizer;
     OdometryNoise {
         drift_fraction: c.odometry_drift_fraction as f32,
         drift_length_m: c.odometry_drift_length_m as f32,
         heading_drift_rad_per_m: c.odometry_heading_drift_rad_per_m as f32,
+        scale_sd: c.odometry_scale_sd as f32,
+        scale_drift_sd: c.odometry_scale_drift_sd as f32,
+        scale_drift_length_m: c.odometry_scale_drift_length_m as f32,
         ..OdometryNoise::default()
     }
 }

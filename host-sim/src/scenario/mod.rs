@@ -197,26 +197,40 @@ pub struct LocalizerConfig {
     pub initial_sigma_m: f64,
     /// Standard deviation of the initial heading error, radians.
     pub initial_sigma_rad: f64,
-    /// Odometry drift the localiser is told to expect: 1σ along-track error as a fraction
-    /// of the distance travelled, over `odometry_drift_length_m`.
+    /// Random odometry drift the localiser is told to expect: 1σ along-track error as a
+    /// fraction of `odometry_drift_length_m` driven (loc-core's `OdometryNoise`; the scale
+    /// error is the localiser's state, below).
     pub odometry_drift_fraction: f64,
-    /// Distance over which odometry errors stay correlated, metres (scale error and slip
-    /// persist; the model is a random walk whose variance reaches
-    /// `(fraction · length)²` after `length`).
+    /// Distance over which `odometry_drift_fraction` holds, metres (a random walk whose
+    /// variance reaches `(fraction · length)²` after `length`).
     pub odometry_drift_length_m: f64,
     /// Heading drift the localiser is told to expect, radians per metre over the same length.
     pub odometry_heading_drift_rad_per_m: f64,
+    /// 1σ of the odometry's scale error before the landmarks calibrate it (dimensionless).
+    pub odometry_scale_sd: f64,
+    /// 1σ change of the odometry's scale error over `odometry_scale_drift_length_m`.
+    pub odometry_scale_drift_sd: f64,
+    /// Distance over which `odometry_scale_drift_sd` holds, metres.
+    pub odometry_scale_drift_length_m: f64,
 }
 
 impl Default for LocalizerConfig {
+    /// loc-core's defaults (Hausdorff, its odometry noise model), an initial estimate 5 cm
+    /// and 0.01 rad off.
     fn default() -> Self {
+        let odometry = loc_core::filter::OdometryNoise::default();
+        // The f32's shortest decimal (0.01, not 0.009999999776…) in scenario files.
+        let decimal = |v: f32| v.to_string().parse().unwrap_or(f64::from(v));
         Self {
             matcher: MatcherChoice::Hausdorff,
             initial_sigma_m: 0.05,
             initial_sigma_rad: 0.01,
-            odometry_drift_fraction: 0.03,
-            odometry_drift_length_m: 10.0,
-            odometry_heading_drift_rad_per_m: 0.005,
+            odometry_drift_fraction: decimal(odometry.drift_fraction),
+            odometry_drift_length_m: decimal(odometry.drift_length_m),
+            odometry_heading_drift_rad_per_m: decimal(odometry.heading_drift_rad_per_m),
+            odometry_scale_sd: decimal(odometry.scale_sd),
+            odometry_scale_drift_sd: decimal(odometry.scale_drift_sd),
+            odometry_scale_drift_length_m: decimal(odometry.scale_drift_length_m),
         }
     }
 }
@@ -630,6 +644,43 @@ impl Scenario {
             c.initial_sigma_rad >= 0.0 && c.initial_sigma_rad < 1.0,
             "localizer.initial_sigma_rad",
             "must lie in [0, 1) rad",
+        )?;
+        let fraction = |v: f64| v.is_finite() && (0.0..1.0).contains(&v);
+        let length = |v: f64| v.is_finite() && v > 0.0 && v <= 1.0e4;
+        for (v, key) in [
+            (
+                c.odometry_drift_fraction,
+                "localizer.odometry_drift_fraction",
+            ),
+            (c.odometry_scale_sd, "localizer.odometry_scale_sd"),
+            (
+                c.odometry_scale_drift_sd,
+                "localizer.odometry_scale_drift_sd",
+            ),
+        ] {
+            check(
+                fraction(v),
+                key,
+                "must lie in [0, 1) (a fraction, 0.01 = 1 %)",
+            )?;
+        }
+        for (v, key) in [
+            (
+                c.odometry_drift_length_m,
+                "localizer.odometry_drift_length_m",
+            ),
+            (
+                c.odometry_scale_drift_length_m,
+                "localizer.odometry_scale_drift_length_m",
+            ),
+        ] {
+            check(length(v), key, "must lie in (0, 10 000] m")?;
+        }
+        check(
+            c.odometry_heading_drift_rad_per_m.is_finite()
+                && (0.0..1.0).contains(&c.odometry_heading_drift_rad_per_m),
+            "localizer.odometry_heading_drift_rad_per_m",
+            "must lie in [0, 1) rad/m",
         )?;
         Ok(())
     }

@@ -114,7 +114,8 @@ impl Ekf {
         if !q.iter().all(|v| v.is_finite()) {
             return Err(CoastRejection::NonFinite);
         }
-        self.apply_motion(&increment, &q);
+        // Coasting moves at the last speed, not by odometry: no scale applies.
+        self.apply_motion(&increment, &q, None);
         Ok(())
     }
 }

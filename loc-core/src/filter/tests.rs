@@ -1,5 +1,6 @@
 use super::*;
 use crate::geometry::{Point2, Pose2};
+use nalgebra::Vector3;
 
 fn diag(a: f32, b: f32, c: f32) -> Matrix3<f32> {
     Matrix3::from_diagonal(&Vector3::new(a, b, c))
@@ -37,12 +38,13 @@ fn rejects_bad_initialisation() {
 
 #[test]
 fn prediction_moves_in_vehicle_frame_and_grows_covariance() {
-    let mut ekf = Ekf::new(
+    let noise = OdometryNoise::default();
+    let mut ekf = Ekf::with_scale(
         Pose2::new(1.0, 2.0, core::f32::consts::FRAC_PI_2),
         diag(1e-4, 1e-4, 1e-6),
+        noise.scale_sd,
     )
     .unwrap();
-    let noise = OdometryNoise::default();
     let step = OdometryIncrement {
         dx_m: 1.0,
         dy_m: 0.0,
@@ -52,7 +54,8 @@ fn prediction_moves_in_vehicle_frame_and_grows_covariance() {
     let p = ekf.pose();
     assert!((p.x_m - 1.0).abs() < 1e-5 && (p.y_m - 3.0).abs() < 1e-5);
     let c = ekf.covariance();
-    // Heading north: along-track (y) variance grows by (3 % of 1 m)², cross-track less.
+    // Heading north: along-track (y) variance grows by (3 % of 1 m)² from the unknown
+    // scale alone, cross-track less.
     assert!(c[(1, 1)] > 1e-4 + 0.8 * 0.03f32.powi(2));
     assert!(c[(0, 0)] < c[(1, 1)]);
     assert!(matches!(
@@ -159,4 +162,75 @@ fn projected_gain_holds_along_position_despite_correlation() {
     assert!((ekf.covariance()[(0, 0)] - 0.25).abs() < 1e-5);
     assert!(ekf.pose().y_m.abs() < 0.01);
     assert!(ekf.covariance().cholesky().is_some());
+}
+
+/// Full-pose fixes every `step_m` of a straight drive whose odometry reads `odometry_scale`
+/// times the truth; returns the filter and the true pose at the end.
+fn drive_with_fixes(odometry_scale: f32, metres: usize, step_m: f32) -> (Ekf, Pose2) {
+    let noise = OdometryNoise::default();
+    let mut ekf = Ekf::with_scale(Pose2::IDENTITY, diag(1e-6, 1e-6, 1e-8), noise.scale_sd).unwrap();
+    let mut truth = Pose2::IDENTITY;
+    let fix = diag(1.0 / 25e-6, 1.0 / 25e-6, 1.0 / 1e-8);
+    let steps = (metres as f32 / step_m) as usize;
+    for _ in 0..steps {
+        truth = Pose2::new(truth.x_m + step_m, 0.0, 0.0);
+        let inc = OdometryIncrement {
+            dx_m: step_m * odometry_scale,
+            dy_m: 0.0,
+            dtheta_rad: 0.0,
+        };
+        ekf.predict(&inc, &noise).unwrap();
+        ekf.update(truth, &fix, None, &obs(), &UpdateConfig::default())
+            .unwrap();
+    }
+    (ekf, truth)
+}
+
+#[test]
+fn the_odometry_scale_is_learnt_from_position_fixes() {
+    // Odometry 2 % short: the true translation is 1/0.98 = 1.0204 × odometry's.
+    let (mut ekf, truth) = drive_with_fixes(0.98, 30, 0.4);
+    let expected = 1.0 / 0.98 - 1.0;
+    assert!(
+        (ekf.scale() - expected).abs() < 3.0 * ekf.scale_sd() && ekf.scale_sd() < 0.005,
+        "scale {} ± {}",
+        ekf.scale(),
+        ekf.scale_sd()
+    );
+    // Ten metres on odometry alone now land within centimetres (2 % would be 20 cm), and
+    // the covariance says so.
+    let noise = OdometryNoise::default();
+    for _ in 0..25 {
+        let inc = OdometryIncrement {
+            dx_m: 0.4 * 0.98,
+            dy_m: 0.0,
+            dtheta_rad: 0.0,
+        };
+        ekf.predict(&inc, &noise).unwrap();
+    }
+    let err = ekf.pose().x_m - (truth.x_m + 10.0);
+    let sd = ekf.covariance()[(0, 0)].sqrt();
+    assert!(
+        err.abs() < 0.05 && err.abs() < 3.0 * sd,
+        "error {err} m, σ {sd} m"
+    );
+}
+
+#[test]
+fn motion_that_is_not_odometry_is_not_scaled() {
+    let (mut ekf, _) = drive_with_fixes(0.95, 30, 0.4);
+    assert!(ekf.scale() > 0.04, "{}", ekf.scale());
+    let step = OdometryIncrement {
+        dx_m: 1.0,
+        dy_m: 0.0,
+        dtheta_rad: 0.0,
+    };
+    let x0 = ekf.pose().x_m;
+    let q = diag(1e-4, 1e-4, 1e-6);
+    ekf.predict_motion(&step, &q, &OdometryNoise::default())
+        .unwrap();
+    assert!((ekf.pose().x_m - x0 - 1.0).abs() < 1e-5);
+    let x1 = ekf.pose().x_m;
+    ekf.predict(&step, &OdometryNoise::default()).unwrap();
+    assert!((ekf.pose().x_m - x1 - (1.0 + ekf.scale())).abs() < 1e-5);
 }

@@ -5,12 +5,15 @@
 //! 1/L)`) and `λ` their eigenvalues, the scan measures `y = Vᵀ·S⁻¹·x` with noise
 //! `diag(1/λ + floor²)`. `Hᵀ·R⁻¹·H` is then exactly the observed part of the information, so
 //! an unobserved direction gets no information and, with an uncorrelated prior, no
-//! correction. Unobserved rows of `H` are kept as zero rows (fixed 3×3 algebra; their
-//! gain columns vanish).
+//! correction. Unobserved rows of `H` are kept as zero rows (fixed 3×4 algebra; their
+//! gain columns vanish). The odometry's scale (the state's fourth component) is not
+//! measured by a scan: its column of `H` is zero and it is corrected through its
+//! correlation with the position (a landmark fix after metres of odometry says how far the
+//! odometry was off).
 
 use core::fmt;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Matrix3x4, Matrix4, Vector3, Vector4};
 
 use super::Ekf;
 use crate::geometry::{Point2, Pose2};
@@ -145,7 +148,7 @@ impl Ekf {
     ///
     /// `unobserved_direction` (unit, world frame), when given, is a direction of travel the
     /// scan does not observe (the tunnel axis with no landmark in view): the gain is
-    /// projected so the update never moves the position along it (`K ← T·K`, `T` removing
+    /// projected so the update never moves the position along it nor the odometry's scale (`K ← T·K`, `T` removing
     /// that translation component; the Joseph form keeps the covariance exact for this
     /// gain). Position and variance along it then follow odometry alone, even in a curve,
     /// where the scan ties the along-tunnel position to the heading and an unprojected update
@@ -165,7 +168,9 @@ impl Ekf {
         if obs.rank == 0 {
             return Err(UpdateRejection::NothingObserved);
         }
-        let h = obs.scaled_basis.transpose() * obs.unscale();
+        let h3 = obs.scaled_basis.transpose() * obs.unscale();
+        let mut h = Matrix3x4::zeros();
+        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&h3);
         let floor_sq = config.min_measurement_sd_m * config.min_measurement_sd_m;
         let mut r_diag = Vector3::repeat(1.0f32);
         for (k, (r, lambda)) in r_diag.iter_mut().zip(obs.eigenvalues.iter()).enumerate() {
@@ -179,7 +184,7 @@ impl Ekf {
             measured.y_m - self.pose.y_m,
             math::wrap_angle(measured.theta_rad - self.pose.theta_rad),
         );
-        let nu = h * error;
+        let nu = h3 * error;
         let p = self.covariance;
         let s = h * p * h.transpose() + r;
         let s_inv = s.try_inverse().ok_or(UpdateRejection::NonFinite)?;
@@ -198,11 +203,15 @@ impl Ekf {
         }
         let mut k = p * h.transpose() * s_inv;
         if let Some(d) = unobserved_direction.filter(|d| d.is_finite() && d.norm_sq() > 0.5) {
-            let e = Vector3::new(d.x_m, d.y_m, 0.0) / d.norm();
-            k = (Matrix3::identity() - e * e.transpose()) * k;
+            let e = Vector4::new(d.x_m, d.y_m, 0.0, 0.0) / d.norm();
+            // Nor does it touch the odometry's scale: only fixes along the travel say how
+            // far the odometry was off, and a scale learnt from heading and lateral
+            // innovations in a curve would carry the along-tunnel error into them.
+            let keep = Matrix4::from_diagonal(&Vector4::new(1.0, 1.0, 1.0, 0.0));
+            k = keep * (Matrix4::identity() - e * e.transpose()) * k;
         }
         let dx = k * nu;
-        let i_kh = Matrix3::identity() - k * h;
+        let i_kh = Matrix4::identity() - k * h;
         let p_new = i_kh * p * i_kh.transpose() + k * r * k.transpose();
         if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
             return Err(UpdateRejection::NonFinite);
@@ -212,6 +221,8 @@ impl Ekf {
             self.pose.y_m + dx.y,
             self.pose.theta_rad + dx.z,
         );
+        // A bound on what odometry can be off by: one wrong match must not make it absurd.
+        self.scale = (self.scale + dx.w).clamp(-super::MAX_SCALE_ERROR, super::MAX_SCALE_ERROR);
         self.covariance = p_new;
         self.condition();
         Ok(UpdateReport {

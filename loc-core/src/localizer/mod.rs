@@ -92,13 +92,18 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         }
     }
 
-    /// Sets (or resets) the pose and its covariance.
+    /// Sets (or resets) the pose and its covariance; the odometry's scale error starts at
+    /// zero ± the configured [`crate::filter::OdometryNoise::scale_sd`].
     pub fn initialise(
         &mut self,
         pose: Pose2,
         covariance: Matrix3<f32>,
     ) -> Result<(), FilterInitError> {
-        self.ekf = Some(Ekf::new(pose, covariance)?);
+        self.ekf = Some(Ekf::with_scale(
+            pose,
+            covariance,
+            self.config.odometry.scale_sd,
+        )?);
         self.status = Status::DeadReckoning;
         self.integrity_monitor = IntegrityMonitor::default();
         Ok(())
@@ -127,6 +132,22 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     ) -> Result<(), OdometryRejection> {
         let r = match self.ekf.as_mut() {
             Some(ekf) => ekf.predict_with_covariance(increment, covariance, &self.config.odometry),
+            None => Ok(()),
+        };
+        self.count_distance(r.is_ok(), increment.distance_m());
+        r
+    }
+
+    /// Predicts with motion that is not odometry's (a constant-velocity guess when the
+    /// vehicle sends none; vehicle frame at the previous pose) and its covariance: the
+    /// odometry's scale error does not apply to it.
+    pub fn predict_motion(
+        &mut self,
+        increment: &OdometryIncrement,
+        covariance: &Matrix3<f32>,
+    ) -> Result<(), OdometryRejection> {
+        let r = match self.ekf.as_mut() {
+            Some(ekf) => ekf.predict_motion(increment, covariance, &self.config.odometry),
             None => Ok(()),
         };
         self.count_distance(r.is_ok(), increment.distance_m());
