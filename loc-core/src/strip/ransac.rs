@@ -47,13 +47,19 @@ pub(super) fn fit_wall<P: VehiclePoint>(
     config: &StripConfig,
     rng: &mut Pcg32,
 ) -> Option<WallFit> {
+    // Hypotheses come from the near wall; the refits extend the wall as far as it keeps
+    // explaining the points (out to the far-wall range: where the tunnel bends away from the
+    // cubic, the far points stay out of the fit).
     let max_r = config.max_fit_range_m;
-    let (mut min_x, mut max_x, mut usable_count) = (f32::INFINITY, f32::NEG_INFINITY, 0usize);
+    let far_r = math::max(config.far_wall_range_m, max_r);
+    let (mut min_x, mut max_x, mut usable_count, mut refit_count) =
+        (f32::INFINITY, f32::NEG_INFINITY, 0usize, 0usize);
     for p in points.iter().map(VehiclePoint::vehicle_point) {
-        if usable(p, max_r) {
+        if usable(p, far_r) {
             min_x = math::min(min_x, p.x_m);
             max_x = math::max(max_x, p.x_m);
-            usable_count += 1;
+            refit_count += 1;
+            usable_count += usize::from(usable(p, max_r));
         }
     }
     if usable_count < usize::from(config.min_wall_points.max(4)) {
@@ -106,7 +112,7 @@ pub(super) fn fit_wall<P: VehiclePoint>(
     let mut result = None;
     // Refits use at most ~MAX_REFIT points (a strided subsample): a few hundred points pin
     // a cubic far below the tolerances, and this pass dominates the stripper's cost.
-    let stride = usable_count.div_ceil(MAX_REFIT).max(1);
+    let stride = refit_count.div_ceil(MAX_REFIT).max(1);
     for _ in 0..2 {
         let mut ls = LeastSquares::new(scaling);
         let mut sum_sq = 0.0f32;
@@ -118,7 +124,7 @@ pub(super) fn fit_wall<P: VehiclePoint>(
             .step_by(stride)
             .map(VehiclePoint::vehicle_point)
         {
-            if usable(p, max_r) {
+            if usable(p, far_r) {
                 let (r, slope) = cubic.residual_and_slope(p);
                 // |normal distance| ≤ tol  ⇔  r² ≤ tol²·(1 + f′²), no square root.
                 let stretch = 1.0 + slope * slope;
