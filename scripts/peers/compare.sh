@@ -3,7 +3,7 @@
 # makes a Python virtual environment with the pinned peers (requirements.txt) under
 # target/peers/venv, then runs compare.py: every recording, loc-core and each peer from the
 # initial pose and from the true pose, one table.
-#   scripts/peers/compare.sh            the full comparison (about 40 min on 2 cores)
+#   scripts/peers/compare.sh            the full comparison (about 2 h on 2 cores from nothing)
 #   scripts/peers/compare.sh --quick    paper-10m seed 1 only (about a minute)
 #   scripts/peers/compare.sh --tune     the grid behind configs.json (tuning.json)
 set -euo pipefail

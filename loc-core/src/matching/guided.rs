@@ -2,11 +2,11 @@
 //!
 //! 1. Pre-align the prediction along the tunnel on the landmark clusters (only if that asks
 //!    for more than `min_shift_m`), match from there.
-//! 2. Pre-align again from the matched pose: with the heading and the lateral offset now
-//!    fixed by the walls, landmark clusters land where they truly are (a 3° heading error
-//!    moves a landmark 10 m away by half a metre, enough to make the first pre-alignment
-//!    give up). If this asks for a shift above `min_shift_m`, match again from the
-//!    shifted pose and keep that result.
+//! 2. If the first gave up, pre-align again from the matched pose: with the heading and
+//!    the lateral offset now fixed by the walls, landmark clusters land where they truly
+//!    are (a 3° heading error moves a landmark 10 m away by half a metre, enough to make
+//!    the first pre-alignment give up). If this asks for a shift above `min_shift_m`,
+//!    match again from the shifted pose and keep that result.
 //!
 //! In steady tracking (a prediction good to a few centimetres) both pre-alignments are
 //! skipped; the second match runs only after a large along-tunnel error. A shift beyond
