@@ -195,7 +195,7 @@ impl Ekf {
         increment: &OdometryIncrement,
         noise: &OdometryNoise,
     ) -> Result<(), OdometryRejection> {
-        check_increment(increment, noise)?;
+        // The increment is checked (first) by `predict_with_covariance`.
         self.predict_with_covariance(increment, &noise.covariance(increment), noise)
     }
 
@@ -238,22 +238,15 @@ impl Ekf {
         odometry_scale_var: Option<f32>,
     ) {
         let (s, c) = math::sin_cos(self.pose.theta_rad);
-        let m = if odometry_scale_var.is_some() {
-            1.0 + self.scale
-        } else {
-            1.0
-        };
+        let scaled = odometry_scale_var.is_some();
+        let m = if scaled { 1.0 + self.scale } else { 1.0 };
         let (dx, dy) = (m * increment.dx_m, m * increment.dy_m);
         // The translation in the world, at the odometry's own scale (∂/∂s).
         let (tx, ty) = (
             c * increment.dx_m - s * increment.dy_m,
             s * increment.dx_m + c * increment.dy_m,
         );
-        let (fx, fy) = if odometry_scale_var.is_some() {
-            (tx, ty)
-        } else {
-            (0.0, 0.0)
-        };
+        let (fx, fy) = if scaled { (tx, ty) } else { (0.0, 0.0) };
         // x' = x + (1 + s)·R(θ)·(dx, dy), θ' = θ + dθ, s' = s.
         #[rustfmt::skip]
         let f = Matrix4::new(

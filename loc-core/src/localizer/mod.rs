@@ -116,12 +116,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         &mut self,
         increment: &OdometryIncrement,
     ) -> Result<(), OdometryRejection> {
-        let r = match self.ekf.as_mut() {
-            Some(ekf) => ekf.predict(increment, &self.config.odometry),
-            None => Ok(()),
-        };
-        self.count_distance(r.is_ok(), increment.distance_m());
-        r
+        let noise = self.config.odometry;
+        self.predict_by(increment, |ekf| ekf.predict(increment, &noise))
     }
 
     /// Predicts with an odometry increment and its own covariance (vehicle frame).
@@ -130,12 +126,10 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         increment: &OdometryIncrement,
         covariance: &Matrix3<f32>,
     ) -> Result<(), OdometryRejection> {
-        let r = match self.ekf.as_mut() {
-            Some(ekf) => ekf.predict_with_covariance(increment, covariance, &self.config.odometry),
-            None => Ok(()),
-        };
-        self.count_distance(r.is_ok(), increment.distance_m());
-        r
+        let noise = self.config.odometry;
+        self.predict_by(increment, |ekf| {
+            ekf.predict_with_covariance(increment, covariance, &noise)
+        })
     }
 
     /// Predicts with motion that is not odometry's (a constant-velocity guess when the
@@ -146,10 +140,20 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         increment: &OdometryIncrement,
         covariance: &Matrix3<f32>,
     ) -> Result<(), OdometryRejection> {
-        let r = match self.ekf.as_mut() {
-            Some(ekf) => ekf.predict_motion(increment, covariance, &self.config.odometry),
-            None => Ok(()),
-        };
+        let noise = self.config.odometry;
+        self.predict_by(increment, |ekf| {
+            ekf.predict_motion(increment, covariance, &noise)
+        })
+    }
+
+    /// Runs one of the filter's predictions by `increment` (nothing before initialisation)
+    /// and counts its distance when applied.
+    fn predict_by(
+        &mut self,
+        increment: &OdometryIncrement,
+        predict: impl FnOnce(&mut Ekf) -> Result<(), OdometryRejection>,
+    ) -> Result<(), OdometryRejection> {
+        let r = self.ekf.as_mut().map_or(Ok(()), predict);
         self.count_distance(r.is_ok(), increment.distance_m());
         r
     }
