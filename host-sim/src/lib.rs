@@ -22,6 +22,7 @@ pub mod map_export;
 pub mod mcap_out;
 pub mod metrics;
 pub mod odometry_gaps;
+pub mod optimize;
 pub mod output;
 pub mod plot;
 pub mod raycast;

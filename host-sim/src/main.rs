@@ -17,6 +17,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use host_sim::closed_loop::{RunLog, RunOptions};
 use host_sim::lidar::ScanRate;
 use host_sim::map_export;
+use host_sim::optimize::{
+    self, ga::Halt, ga::Outcome, search, store::GenerationRow, store::SearchSpec, store::Shard,
+    store::Store,
+};
 use host_sim::output::{self, MetricsJson};
 use host_sim::record;
 use host_sim::replay::{self, ReplaySources};
@@ -54,6 +58,9 @@ enum Command {
     ExportMap(ExportArgs),
     /// Localises from a recording (run --record DIR, or a real vehicle's) and reports the metrics.
     Replay(ReplayArgs),
+    /// The paper's genetic algorithm: the landmark genes (shape and spacing) of one model that
+    /// minimise the localisation MSE of simulated runs (files, figures and report.html in --out).
+    Optimize(OptimizeArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -188,6 +195,68 @@ struct ReplayArgs {
     /// Print the metrics as one JSON object instead of the report.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Args)]
+struct OptimizeArgs {
+    /// Scenario file (TOML) to evaluate in (default: --scenario paper-10m).
+    file: Option<PathBuf>,
+    /// Named scenario: paper-10m, tunnel-1km, demo-200m.
+    #[arg(long, conflicts_with = "file")]
+    scenario: Option<String>,
+    /// Landmark model whose genes are searched: p1, p2, p3, p4, f1, f2, f3, f4.
+    #[arg(long, required_unless_present = "resume")]
+    model: Option<String>,
+    /// Scan matcher of the evaluations.
+    #[arg(long, value_enum)]
+    matcher: Option<MatcherArg>,
+    /// Drive only this many metres of the scenario.
+    #[arg(long)]
+    length: Option<f64>,
+    /// Individuals per generation (the paper: 100).
+    #[arg(long, default_value_t = 100)]
+    population: usize,
+    /// Generations at most (the paper: 100).
+    #[arg(long, default_value_t = 100)]
+    generations: usize,
+    /// Generations the stopping rule averages the relative decrease of the best fitness over.
+    #[arg(long, default_value_t = 10)]
+    stall_generations: usize,
+    /// Stop when that average falls below this (the paper: 0.001 = 0.1 %).
+    #[arg(long, default_value_t = 0.001)]
+    tolerance: f64,
+    /// Seed of the GA's draws and of every evaluation.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Fresh seeds the best genome (and generation 1's median) is validated on at the end.
+    #[arg(long, default_value_t = 15)]
+    validation_seeds: usize,
+    /// Directory of a new search (generations, evaluations, figures, report.html).
+    #[arg(long, conflicts_with = "resume", required_unless_present = "resume")]
+    out: Option<PathBuf>,
+    /// Continue the search in this directory (after Ctrl-C, or a cluster step).
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// Cluster: advance with the evaluations already made and write the next generation's
+    /// missing ones to DIR/pending.csv, instead of evaluating here.
+    #[arg(long, conflicts_with_all = ["shard", "merge"])]
+    pending_only: bool,
+    /// Cluster: evaluate shard I of N of DIR/pending.csv (`I/N`); with --shard-count N alone,
+    /// I is $SLURM_ARRAY_TASK_ID.
+    #[arg(long, requires = "resume", conflicts_with = "merge")]
+    shard: Option<String>,
+    /// Cluster: the shard count N when the index comes from $SLURM_ARRAY_TASK_ID.
+    #[arg(long, requires = "resume", conflicts_with = "shard")]
+    shard_count: Option<usize>,
+    /// Cluster: merge DIR/shards/*.csv into the search's evaluations.
+    #[arg(long, requires = "resume")]
+    merge: bool,
+    /// Print the result as one JSON object.
+    #[arg(long)]
+    json: bool,
+    /// No progress output.
+    #[arg(long)]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -633,6 +702,211 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
 /// Prints a line to stdout. A closed pipe (`| head`) ends output quietly; any other
 /// failure (a full disk, `> /dev/full`) is an error: output asked for and lost is not a
 /// success.
+/// The search directory of `optimize`: a new one from the flags, or the one to resume.
+fn open_search(a: &OptimizeArgs) -> Result<(Store, SearchSpec, Scenario), String> {
+    if let Some(dir) = &a.resume {
+        return Store::open(dir).map_err(|e| e.to_string());
+    }
+    let model = a.model.as_deref().unwrap_or_default();
+    let code = loc_core::landmark::LandmarkModel::from_code(model)
+        .ok_or_else(|| format!("--model `{model}`: use p1, p2, p3, p4, f1, f2, f3 or f4"))?
+        .code();
+    let s = load_scenario(&ScenarioArgs {
+        file: a.file.clone(),
+        scenario: match (&a.file, &a.scenario) {
+            (None, None) => Some("paper-10m".into()),
+            (_, s) => s.clone(),
+        },
+        landmarks: Some(code.to_ascii_lowercase()),
+        genes: None,
+        matcher: a.matcher,
+        seed: Some(a.seed),
+        missing_every: None,
+        missing_fraction: None,
+        damage_fraction: None,
+        length: a.length,
+        speed: None,
+        rate: None,
+    })?;
+    if a.population < 2 {
+        return Err("--population must be at least 2".into());
+    }
+    if !(a.tolerance.is_finite() && a.tolerance >= 0.0) {
+        return Err("--tolerance must be a number ≥ 0".into());
+    }
+    let spec = SearchSpec {
+        model: code.to_string(),
+        population: a.population,
+        elite_fraction: 0.05,
+        crossover_fraction: 0.75,
+        max_generations: a.generations.max(1),
+        stall_generations: a.stall_generations,
+        tolerance: a.tolerance,
+        seed: a.seed,
+    };
+    let dir = a.out.as_deref().ok_or("give --out DIR (or --resume DIR)")?;
+    Store::create(dir, &spec, &s).map_err(|e| e.to_string())?;
+    // Every session reads the scenario back from the directory: the same values to the bit.
+    Store::open(dir).map_err(|e| e.to_string())
+}
+
+/// The shard of this task: --shard I/N, or $SLURM_ARRAY_TASK_ID of --shard-count N.
+fn shard_of(a: &OptimizeArgs) -> Result<Option<Shard>, String> {
+    match (&a.shard, a.shard_count) {
+        (Some(s), _) => Shard::parse(s).map(Some),
+        (None, Some(n)) => {
+            let id = std::env::var("SLURM_ARRAY_TASK_ID")
+                .map_err(|_| "--shard-count needs $SLURM_ARRAY_TASK_ID (run it as a Slurm array task) or use --shard I/N".to_string())?;
+            Shard::parse(&format!("{id}/{n}")).map(Some)
+        }
+        (None, None) => Ok(None),
+    }
+}
+
+fn cmd_optimize(a: &OptimizeArgs) -> Result<(), String> {
+    use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+    static INTERRUPT: AtomicBool = AtomicBool::new(false);
+    static PRESSES: AtomicU8 = AtomicU8::new(0);
+    let (store, spec, scenario) = open_search(a)?;
+    let obj = search::objective(&spec, &scenario)?;
+    let dir = store.dir.display().to_string();
+    // Ctrl-C: finish the running evaluations, keep everything; a second one quits at once.
+    let _ = ctrlc::set_handler(move || {
+        if PRESSES.fetch_add(1, Ordering::SeqCst) > 0 {
+            std::process::exit(130);
+        }
+        INTERRUPT.store(true, Ordering::SeqCst);
+        eprintln!("\nstopping after the running evaluations (Ctrl-C again to quit now)");
+    });
+    if a.merge {
+        let n = store.merge_shards(&obj.space).map_err(|e| e.to_string())?;
+        return out(&format!(
+            "merged {n} evaluations into {dir}/evaluations.csv"
+        ));
+    }
+    if let Some(shard) = shard_of(a)? {
+        let n = search::run_shard(&store, &spec, &obj, shard, &INTERRUPT)?;
+        return out(&format!(
+            "shard {}/{}: {n} evaluations in {}",
+            shard.index,
+            shard.count,
+            store.shard_path(shard).display()
+        ));
+    }
+    let show = !a.quiet && !a.json;
+    let bar = show.then(|| {
+        let b = ProgressBar::new(1);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{msg:>14} [{bar:40}] {pos}/{len} runs {elapsed} ({eta} left)",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+        );
+        b
+    });
+    let progress = |generation: usize, done: usize, total: usize| {
+        if let Some(b) = &bar {
+            b.set_message(format!("generation {}", generation + 1));
+            b.set_length(total as u64);
+            b.set_position(done as u64);
+        }
+    };
+    let evaluator = if a.pending_only {
+        search::Evaluator::CachedOnly
+    } else {
+        search::Evaluator::Local {
+            interrupt: &INTERRUPT,
+            progress: &progress,
+        }
+    };
+    let space = obj.space.clone();
+    let mut line = |r: &GenerationRow| {
+        if let Some(b) = &bar {
+            let genes: Vec<String> = r
+                .best
+                .iter()
+                .enumerate()
+                .map(|(i, v)| format!("{}={v:.3}", space.name(i)))
+                .collect();
+            b.println(format!(
+                "generation {:>3}: best RMS {:.2} mm, median {:.2} mm, {} new runs; best {}",
+                r.index + 1,
+                r.best_fitness.sqrt() * 1e3,
+                r.median_fitness.sqrt() * 1e3,
+                r.new_evaluations,
+                genes.join(" ")
+            ));
+        }
+    };
+    let state = search::run(&store, &spec, &obj, evaluator, &mut line)?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    match &state.outcome {
+        Outcome::Halted(Halt::Interrupted) => Err(format!(
+            "interrupted after {} generations and {} evaluations, all kept: continue with `host-sim optimize --resume {dir}`",
+            state.generations.len(),
+            state.evaluations
+        )),
+        Outcome::Halted(Halt::Failed(e)) => Err(format!("the search stopped: {e}")),
+        Outcome::Halted(Halt::Pending(p)) => {
+            if a.json {
+                out(&format!("{{\"pending\":{},\"generation\":{}}}", p.len(), state.generations.len() + 1))
+            } else {
+                out(&format!(
+                    "generation {}: {} evaluations pending in {dir}/pending.csv",
+                    state.generations.len() + 1,
+                    p.len()
+                ))
+            }
+        }
+        Outcome::Finished(reason) => {
+            if show {
+                eprintln!("validating the best genome on {} fresh seeds", a.validation_seeds);
+            }
+            let summary = optimize::finish(&store, &spec, &obj, &state, *reason, a.validation_seeds.max(2))?;
+            if a.json {
+                out(&serde_json::to_string(&summary).map_err(|e| e.to_string())?)
+            } else {
+                out(&optimize_report(&summary))
+            }
+        }
+    }
+}
+
+/// The text summary of a finished search.
+fn optimize_report(s: &optimize::SearchSummary) -> String {
+    let genes: Vec<String> = s
+        .best_genes
+        .iter()
+        .map(|g| format!("{} = {:.4} {}", g.name, g.value, g.unit))
+        .collect();
+    let mut t = format!(
+        "{} with {} in {}: {} generations, {} simulated runs, {:.1} s\n",
+        s.model, s.matcher, s.scenario, s.generations, s.evaluations, s.wall_time_s
+    );
+    t += &format!("best genome: {}\n", genes.join(", "));
+    t += &format!(
+        "fitness (eq. 2 MSE): {:.3e} (RMS {:.2} mm)\n",
+        s.best_fitness_mse,
+        s.best_rms_eq2 * 1e3
+    );
+    t += &format!(
+        "validated on {} fresh seeds: {:.2} ± {:.2} mm (95 %); generation 1's median genome {:.2} ± {:.2} mm; ratio {:.3}\n",
+        s.validation_best.seeds.len(),
+        s.validation_best.mean_position_rms_m * 1e3,
+        s.validation_best.ci95_m * 1e3,
+        s.validation_first_median.mean_position_rms_m * 1e3,
+        s.validation_first_median.ci95_m * 1e3,
+        s.best_over_random_median
+    );
+    for f in &s.files {
+        t += &format!("wrote {}\n", f.display());
+    }
+    t.trim_end().to_string()
+}
+
 fn out(text: &str) -> Result<(), String> {
     use std::io::Write;
     let mut o = std::io::stdout().lock();
@@ -682,6 +956,7 @@ fn main() -> ExitCode {
         Command::Run(a) => cmd_run(a),
         Command::ExportMap(a) => cmd_export(a),
         Command::Replay(a) => cmd_replay(a),
+        Command::Optimize(a) => cmd_optimize(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

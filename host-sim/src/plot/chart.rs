@@ -30,12 +30,15 @@ pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .map_err(msg)
 }
 
-/// A panel of `series` against distance driven (0 … `x1` m) on a log `y` axis spanning
-/// their positive values (values below it drawn at its floor), with a legend.
+/// A panel of `series` against `x` (0 … `x1`, described by `x_desc`; distance driven in the
+/// run plots) on a log `y` axis spanning their positive values (values below it drawn at
+/// its floor), with a legend.
+#[allow(clippy::too_many_arguments)]
 pub fn log_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     caption: String,
     caption_px: u32,
+    x_desc: &str,
     y_desc: &str,
     x1: f64,
     series: Vec<Series>,
@@ -51,7 +54,7 @@ pub fn log_panel<DB: DrawingBackend>(
         .map_err(msg)?;
     chart
         .configure_mesh()
-        .x_desc("distance driven (m)")
+        .x_desc(x_desc)
         .y_desc(y_desc)
         .label_style((FONT, 14))
         .y_label_formatter(&|v| format!("{v:.0e}"))

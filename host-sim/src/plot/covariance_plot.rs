@@ -25,6 +25,7 @@ pub fn draw<DB: DrawingBackend>(
         &top,
         format!("{title}: localiser position 1σ along the run"),
         20,
+        "distance driven (m)",
         "metres (log scale)",
         x1,
         vec![
@@ -47,6 +48,7 @@ pub fn draw<DB: DrawingBackend>(
         &bottom,
         "heading 1σ".to_string(),
         20,
+        "distance driven (m)",
         "degrees (log scale)",
         x1,
         vec![

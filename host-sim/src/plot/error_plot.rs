@@ -44,6 +44,7 @@ pub fn draw<DB: DrawingBackend>(
         root,
         format!("{title}: position error vs distance driven"),
         22,
+        "distance driven (m)",
         "error (m, log scale)",
         x1,
         series.into(),

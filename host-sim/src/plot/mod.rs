@@ -32,7 +32,7 @@ pub const MAP_SIZE: (u32, u32) = (1600, 800);
 pub const CHART_SIZE: (u32, u32) = (1400, 800);
 
 /// Draws `f` into `DIR/NAME.png` and `DIR/NAME.svg`.
-fn both(
+pub(crate) fn both(
     dir: &Path,
     name: &str,
     size: (u32, u32),
