@@ -228,7 +228,8 @@ struct OptimizeArgs {
     /// Seed of the GA's draws and of every evaluation.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Fresh seeds the best genome (and generation 1's median) is validated on at the end.
+    /// Fresh seeds the best genome (and generation 1's median) is validated on at the end
+    /// (at least 2).
     #[arg(long, default_value_t = 15)]
     validation_seeds: usize,
     /// Directory of a new search (generations, evaluations, figures, report.html).
@@ -743,6 +744,7 @@ fn open_search(a: &OptimizeArgs) -> Result<(Store, SearchSpec, Scenario), String
         stall_generations: a.stall_generations,
         tolerance: a.tolerance,
         seed: a.seed,
+        validation_seeds: a.validation_seeds.max(2),
     };
     let dir = a.out.as_deref().ok_or("give --out DIR (or --resume DIR)")?;
     Store::create(dir, &spec, &s).map_err(|e| e.to_string())?;
@@ -863,9 +865,12 @@ fn cmd_optimize(a: &OptimizeArgs) -> Result<(), String> {
         }
         Outcome::Finished(reason) => {
             if show {
-                eprintln!("validating the best genome on {} fresh seeds", a.validation_seeds);
+                eprintln!(
+                    "validating the best genome on {} fresh seeds",
+                    spec.validation_seeds
+                );
             }
-            let summary = optimize::finish(&store, &spec, &obj, &state, *reason, a.validation_seeds.max(2))?;
+            let summary = optimize::finish(&store, &spec, &obj, &state, *reason)?;
             if a.json {
                 out(&serde_json::to_string(&summary).map_err(|e| e.to_string())?)
             } else {

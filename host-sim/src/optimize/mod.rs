@@ -95,15 +95,14 @@ pub struct SearchSummary {
 }
 
 /// Finishes a search whose GA loop stopped with `reason`: validates the best and the first
-/// generation's median genome on `validation_seeds` fresh seeds, draws the figures and
-/// writes `summary.json` and `report.html`.
+/// generation's median genome on the spec's fresh seeds, draws the figures and writes
+/// `summary.json` and `report.html`.
 pub fn finish(
     store: &Store,
     spec: &SearchSpec,
     obj: &SimulatedObjective,
     state: &SearchState,
     reason: StopReason,
-    validation_seeds: usize,
 ) -> Result<SearchSummary, String> {
     let space = &obj.space;
     let last = state
@@ -115,7 +114,7 @@ pub fn finish(
         .read_generation(space, last.index)
         .map_err(|e| e.to_string())?;
     let first_median = first_median(store, space)?;
-    let seeds = validation::fresh_seeds(spec.seed, validation_seeds);
+    let seeds = validation::fresh_seeds(spec.seed, spec.validation_seeds.max(2));
     let validation_best = validation::validate(obj, &last.best, &seeds);
     let validation_first_median = validation::validate(obj, &first_median, &seeds);
     let title = format!(

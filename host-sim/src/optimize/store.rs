@@ -48,6 +48,8 @@ pub struct SearchSpec {
     pub tolerance: f64,
     /// Seed of the GA's draws and of every evaluation.
     pub seed: u64,
+    /// Fresh seeds the best genome is validated on when the search ends.
+    pub validation_seeds: usize,
 }
 
 impl SearchSpec {
@@ -455,6 +457,7 @@ mod tests {
             stall_generations: 10,
             tolerance: 0.001,
             seed: 3,
+            validation_seeds: 3,
         }
     }
 
