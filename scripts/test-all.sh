@@ -28,6 +28,8 @@ step "clippy (host workspace)" cargo clippy --workspace --all-targets --release 
 step "cargo test (host workspace)" cargo test --workspace --release --no-fail-fast
 step "loc-core for thumbv7em-none-eabihf" \
   cargo build -p loc-core --release --target thumbv7em-none-eabihf
+step "landmark search through Slurm job arrays (one-node cluster)" bash scripts/slurm/test-slurm.sh
+step "report.html in headless Chromium" bash scripts/check-report-render.sh
 if [ -x firmware/run-qemu-tests.sh ]; then
   step "firmware under QEMU" firmware/run-qemu-tests.sh
 fi
