@@ -35,8 +35,7 @@ fn optimize(out_flag: &str, dir: &Path, extra: &[&str]) -> std::process::Output 
     }
     args.extend([out_flag, dir.to_str().unwrap()]);
     args.extend(extra);
-    let out = host_sim(&args).output().unwrap();
-    out
+    host_sim(&args).output().unwrap()
 }
 
 fn summary(dir: &Path) -> serde_json::Value {
