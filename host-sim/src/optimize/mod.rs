@@ -10,6 +10,7 @@
 //! - [`store`]: the search directory's files.
 //! - [`validation`]: repeated runs on fresh seeds, mean and 95 % interval.
 //! - [`figures`], [`report_html`]: Figures 6–8 and `report.html`.
+//! - [`table2`]: every model with both matchers, beside the paper's Table 2.
 
 pub mod figures;
 pub mod fitness;
@@ -20,6 +21,7 @@ pub mod report_html;
 pub mod search;
 pub mod stopping;
 pub mod store;
+pub mod table2;
 pub mod validation;
 
 use std::path::PathBuf;
