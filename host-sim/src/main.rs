@@ -17,6 +17,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use host_sim::closed_loop::{RunLog, RunOptions};
 use host_sim::lidar::ScanRate;
 use host_sim::map_export;
+use host_sim::optimize::fitness::ObjectiveKind;
 use host_sim::optimize::{
     self, ga::Halt, ga::Outcome, search, store::GenerationRow, store::SearchSpec, store::Shard,
     store::Store,
@@ -64,6 +65,9 @@ enum Command {
     /// The paper's Table 2: a GA search for each model with each matcher, each optimum
     /// validated on fresh seeds, beside the paper's values (table2.md in --out).
     Table2(Table2Args),
+    /// GA + simulated MSE, GA + Fisher bound and CMA-ES + Fisher bound for one model, each
+    /// optimum validated by simulation (comparison.md in --out).
+    CompareObjectives(CompareArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -200,6 +204,12 @@ struct ReplayArgs {
     json: bool,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum ObjectiveArg {
+    Simulation,
+    Fisher,
+}
+
 #[derive(Args)]
 struct OptimizeArgs {
     /// Scenario file (TOML) to evaluate in (default: --scenario paper-10m).
@@ -235,6 +245,14 @@ struct OptimizeArgs {
     /// (at least 2).
     #[arg(long, default_value_t = 15)]
     validation_seeds: usize,
+    /// What the GA minimises: the simulated runs' MSE (the paper's) or the deterministic
+    /// worst-case along-tunnel Cramér–Rao variance of one scan.
+    #[arg(long, value_enum, default_value = "simulation")]
+    objective: ObjectiveArg,
+    /// Simulated runs averaged in each fitness (1: the paper's; 3 penalises designs that
+    /// fail on some seeds, at three times the cost).
+    #[arg(long, default_value_t = 1)]
+    runs_per_evaluation: usize,
     /// Directory of a new search (generations, evaluations, figures, report.html).
     #[arg(long, conflicts_with = "resume", required_unless_present = "resume")]
     out: Option<PathBuf>,
@@ -277,11 +295,36 @@ struct Table2Args {
     /// Seed of every search.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Simulated runs averaged in each fitness (the paper: 1).
+    #[arg(long, default_value_t = 1)]
+    runs_per_evaluation: usize,
     /// Directory of the sixteen searches, table2.md and table2.json; running the command
     /// again continues the searches not finished.
     #[arg(long)]
     out: PathBuf,
     /// Print the rows as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// Landmark model: p1, p2, p3, p4, f1, f2, f3, f4.
+    #[arg(long, default_value = "p1")]
+    model: String,
+    /// Named scenario (default paper-10m).
+    #[arg(long, default_value = "paper-10m")]
+    scenario: String,
+    /// Seed of the searches and of CMA-ES.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Evaluations CMA-ES may make.
+    #[arg(long, default_value_t = 3000)]
+    cmaes_evaluations: usize,
+    /// Directory of the two GA searches, comparison.md and comparison.json.
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the comparison as JSON.
     #[arg(long)]
     json: bool,
 }
@@ -771,6 +814,11 @@ fn open_search(a: &OptimizeArgs) -> Result<(Store, SearchSpec, Scenario), String
         tolerance: a.tolerance,
         seed: a.seed,
         validation_seeds: a.validation_seeds.max(2),
+        runs_per_evaluation: a.runs_per_evaluation.max(1),
+        objective: match a.objective {
+            ObjectiveArg::Simulation => ObjectiveKind::Simulation,
+            ObjectiveArg::Fisher => ObjectiveKind::Fisher,
+        },
     };
     let dir = a.out.as_deref().ok_or("give --out DIR (or --resume DIR)")?;
     Store::create(dir, &spec, &s).map_err(|e| e.to_string())?;
@@ -807,7 +855,7 @@ fn cmd_optimize(a: &OptimizeArgs) -> Result<(), String> {
         eprintln!("\nstopping after the running evaluations (Ctrl-C again to quit now)");
     });
     if a.merge {
-        let n = store.merge_shards(&obj.space).map_err(|e| e.to_string())?;
+        let n = store.merge_shards(obj.space()).map_err(|e| e.to_string())?;
         return out(&format!(
             "merged {n} evaluations into {dir}/evaluations.csv"
         ));
@@ -848,7 +896,7 @@ fn cmd_optimize(a: &OptimizeArgs) -> Result<(), String> {
             progress: &progress,
         }
     };
-    let space = obj.space.clone();
+    let space = obj.space().clone();
     let mut line = |r: &GenerationRow| {
         if let Some(b) = &bar {
             let genes: Vec<String> = r
@@ -931,7 +979,11 @@ fn cmd_table2(a: &Table2Args) -> Result<(), String> {
         INTERRUPT.store(true, Ordering::SeqCst);
         eprintln!("\nstopping after the running evaluations; run the same command to continue");
     });
-    let budget = if a.quick { Budget::QUICK } else { Budget::PAPER };
+    let budget = if a.quick {
+        Budget::QUICK
+    } else {
+        Budget::PAPER
+    };
     let quiet = a.json;
     let rows = table2::run(&base, budget, a.seed, &a.out, &INTERRUPT, &mut |line| {
         if !quiet {
@@ -947,6 +999,46 @@ fn cmd_table2(a: &Table2Args) -> Result<(), String> {
             out(&format!("wrote {}", f.display()))?;
         }
         Ok(())
+    }
+}
+
+fn cmd_compare(a: &CompareArgs) -> Result<(), String> {
+    use optimize::comparison;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static INTERRUPT: AtomicBool = AtomicBool::new(false);
+    let model = loc_core::landmark::LandmarkModel::from_code(&a.model).ok_or_else(|| {
+        format!(
+            "--model `{}`: use p1, p2, p3, p4, f1, f2, f3 or f4",
+            a.model
+        )
+    })?;
+    let scenario = named(&a.scenario).map_err(|e| e.to_string())?;
+    let _ = ctrlc::set_handler(|| {
+        INTERRUPT.store(true, Ordering::SeqCst);
+        eprintln!("\nstopping after the running evaluations; run the same command to continue");
+    });
+    let quiet = a.json;
+    let c = comparison::run(
+        &scenario,
+        model,
+        a.seed,
+        a.cmaes_evaluations,
+        &a.out,
+        &INTERRUPT,
+        &mut |line| {
+            if !quiet {
+                eprintln!("{line}");
+            }
+        },
+    )?;
+    let md = a.out.join("comparison.md");
+    write_file(&md, comparison::markdown(&c).as_bytes())?;
+    let json = serde_json::to_string_pretty(&c).map_err(|e| e.to_string())?;
+    write_file(&a.out.join("comparison.json"), json.as_bytes())?;
+    if a.json {
+        out(&json)
+    } else {
+        out(&comparison::markdown(&c))
     }
 }
 
@@ -1033,6 +1125,7 @@ fn main() -> ExitCode {
         Command::Replay(a) => cmd_replay(a),
         Command::Optimize(a) => cmd_optimize(a),
         Command::Table2(a) => cmd_table2(a),
+        Command::CompareObjectives(a) => cmd_compare(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

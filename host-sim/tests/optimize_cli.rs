@@ -209,3 +209,57 @@ fn bad_requests_are_refused_with_what_to_do() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--resume"));
 }
+
+#[test]
+fn table2_quick_writes_every_model_with_both_matchers() {
+    let root = tempfile::tempdir().unwrap();
+    let out = host_sim(&[
+        "table2",
+        "--quick",
+        "--json",
+        "--out",
+        root.path().to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 16);
+    assert_eq!(rows[0]["summary"]["model"], "P1");
+    assert_eq!(rows[0]["summary"]["matcher"], "icp");
+    assert_eq!(rows[0]["paper_rms_m"], 0.042);
+    assert_eq!(rows[15]["summary"]["model"], "F4");
+    assert_eq!(rows[15]["summary"]["matcher"], "hausdorff");
+    for r in rows {
+        let v = &r["summary"]["validation_best"];
+        assert_eq!(v["seeds"].as_array().unwrap().len(), 3);
+        assert!(v["mean_position_rms_m"].as_f64().unwrap() > 0.0);
+    }
+    let md = read(root.path(), "table2.md");
+    assert_eq!(md.lines().count(), 2 + 8, "{md}");
+    assert!(md.contains("| F4 |"));
+    for d in ["p1-icp", "p1-hausdorff", "f4-hausdorff"] {
+        assert!(root.path().join(d).join("report.html").is_file(), "{d}");
+    }
+    // Run again: every search is finished, nothing is evaluated again.
+    let again = host_sim(&[
+        "table2",
+        "--quick",
+        "--json",
+        "--out",
+        root.path().to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    assert!(again.status.success());
+    let rows2: serde_json::Value = serde_json::from_slice(&again.stdout).unwrap();
+    for (a, b) in rows.iter().zip(rows2.as_array().unwrap()) {
+        assert_eq!(a["summary"]["best_genes"], b["summary"]["best_genes"]);
+        assert_eq!(a["summary"]["evaluations"], b["summary"]["evaluations"]);
+    }
+}

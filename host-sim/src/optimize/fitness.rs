@@ -10,7 +10,70 @@ use crate::metrics::Accuracy;
 use crate::scenario::Scenario;
 use crate::session::{run_scenario, EstimatorChoice};
 
+use super::fisher_objective::FisherObjective;
 use super::genes::GeneSpace;
+
+/// Which objective a search minimises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObjectiveKind {
+    /// Eq. 2's MSE of simulated closed-loop runs (the paper's).
+    #[default]
+    Simulation,
+    /// The worst-case along-tunnel Cramér–Rao variance of one scan (deterministic).
+    Fisher,
+}
+
+impl ObjectiveKind {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObjectiveKind::Simulation => "simulation",
+            ObjectiveKind::Fisher => "fisher",
+        }
+    }
+}
+
+/// A search's objective: the simulation (always there: it validates every optimum) and,
+/// for a Fisher search, the Fisher objective.
+#[derive(Debug, Clone)]
+pub struct SearchObjective {
+    /// The simulated objective.
+    pub simulated: SimulatedObjective,
+    /// The Fisher objective, when the search minimises it.
+    pub fisher: Option<FisherObjective>,
+}
+
+impl SearchObjective {
+    /// The objective `kind` of `space` in `scenario`.
+    pub fn new(kind: ObjectiveKind, scenario: &Scenario, space: GeneSpace) -> Self {
+        Self {
+            fisher: (kind == ObjectiveKind::Fisher)
+                .then(|| FisherObjective::new(scenario, space.clone())),
+            simulated: SimulatedObjective {
+                scenario: scenario.clone(),
+                space,
+            },
+        }
+    }
+
+    /// The genes searched.
+    pub fn space(&self) -> &GeneSpace {
+        &self.simulated.space
+    }
+
+    /// The fitness of `genes`: the simulation's mean MSE over `seeds` (m² + rad²), or the
+    /// Fisher objective's worst along-tunnel variance (m²; the seeds play no part).
+    pub fn fitness(&self, genes: &[f64], seeds: &[u64]) -> Result<f64, String> {
+        match &self.fisher {
+            Some(f) => f.evaluate(genes).map(|e| e.worst_along_sd_m.powi(2)),
+            None => self
+                .simulated
+                .evaluate_runs(genes, seeds)
+                .map(|e| e.mse_eq2),
+        }
+    }
+}
 
 /// The localiser's figures of one evaluation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +115,25 @@ impl SimulatedObjective {
         })
     }
 
+    /// The mean of [`Self::evaluate`] over `seeds` (one run per seed; the paper's fitness is
+    /// one run). The first run that cannot be made is the error.
+    pub fn evaluate_runs(&self, genes: &[f64], seeds: &[u64]) -> Result<Evaluation, String> {
+        let mut sum = Evaluation {
+            mse_eq2: 0.0,
+            position_rms_m: 0.0,
+        };
+        for &seed in seeds {
+            let e = self.evaluate(genes, seed)?;
+            sum.mse_eq2 += e.mse_eq2;
+            sum.position_rms_m += e.position_rms_m;
+        }
+        let n = seeds.len().max(1) as f64;
+        Ok(Evaluation {
+            mse_eq2: sum.mse_eq2 / n,
+            position_rms_m: sum.position_rms_m / n,
+        })
+    }
+
     /// The fitness of `genes` at `seed`: eq. 2's MSE, or +∞ for a genome that cannot be run
     /// or a run without a finite error (so it ranks last and is never kept).
     pub fn fitness(&self, genes: &[f64], seed: u64) -> f64 {
@@ -83,6 +165,10 @@ mod tests {
         // A tiny landmark barely above the wall roughness localises worse along the tunnel.
         let flat = obj.evaluate(&[0.01, 0.01, 3.0], 3).unwrap();
         assert!(flat.mse_eq2 > a, "{} vs {a}", flat.mse_eq2);
+        // Several runs: their mean.
+        let two = obj.evaluate_runs(&good, &[3, 4]).unwrap();
+        let four = obj.evaluate(&good, 4).unwrap();
+        assert!((two.mse_eq2 - (a + four.mse_eq2) / 2.0).abs() < 1e-15);
         // Outside the bounds: not run, ranked last.
         assert_eq!(obj.fitness(&[5.0, 0.25, 3.0], 3), f64::INFINITY);
     }

@@ -4,15 +4,21 @@
 //! - [`operators`]: initial draw, ranking, SUS, elitism, crossover, mutation, one GA step.
 //! - [`stopping`]: the generation limit and the average-relative-decrease rule.
 //! - [`ga`]: the generation loop over an evaluation cache (deterministic from the seed).
-//! - [`fitness`]: eq. 2's MSE of one simulated closed-loop run.
+//! - [`fitness`]: eq. 2's MSE of one simulated closed-loop run; the search's objective.
+//! - [`fisher_objective`]: the deterministic worst-case along-tunnel Cramér–Rao bound.
+//! - [`cmaes_search`]: CMA-ES (the `cmaes` crate) over the genes' unit cube.
 //! - [`search`]: a search in its directory, evaluated in parallel here or left pending for
 //!   a cluster's shards.
 //! - [`store`]: the search directory's files.
 //! - [`validation`]: repeated runs on fresh seeds, mean and 95 % interval.
 //! - [`figures`], [`report_html`]: Figures 6–8 and `report.html`.
 //! - [`table2`]: every model with both matchers, beside the paper's Table 2.
+//! - [`comparison`]: GA + simulation, GA + Fisher, CMA-ES + Fisher side by side.
 
+pub mod cmaes_search;
+pub mod comparison;
 pub mod figures;
+pub mod fisher_objective;
 pub mod fitness;
 pub mod ga;
 pub mod genes;
@@ -28,7 +34,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use fitness::SimulatedObjective;
+use fitness::SearchObjective;
 use genes::GeneSpace;
 use search::SearchState;
 use stopping::StopReason;
@@ -102,11 +108,11 @@ pub struct SearchSummary {
 pub fn finish(
     store: &Store,
     spec: &SearchSpec,
-    obj: &SimulatedObjective,
+    obj: &SearchObjective,
     state: &SearchState,
     reason: StopReason,
 ) -> Result<SearchSummary, String> {
-    let space = &obj.space;
+    let space = obj.space();
     let last = state
         .generations
         .last()
@@ -117,13 +123,13 @@ pub fn finish(
         .map_err(|e| e.to_string())?;
     let first_median = first_median(store, space)?;
     let seeds = validation::fresh_seeds(spec.seed, spec.validation_seeds.max(2));
-    let validation_best = validation::validate(obj, &last.best, &seeds);
-    let validation_first_median = validation::validate(obj, &first_median, &seeds);
+    let validation_best = validation::validate(&obj.simulated, &last.best, &seeds);
+    let validation_first_median = validation::validate(&obj.simulated, &first_median, &seeds);
     let title = format!(
         "{} {} in {}",
         spec.model,
-        obj.scenario.localizer.matcher.name(),
-        obj.scenario.name
+        obj.simulated.scenario.localizer.matcher.name(),
+        obj.simulated.scenario.name
     );
     let mut files = figures::write_figures(
         &store.dir,
@@ -137,8 +143,8 @@ pub fn finish(
     files.push(store.dir.join("generations.csv"));
     let mut summary = SearchSummary {
         model: spec.model.clone(),
-        matcher: obj.scenario.localizer.matcher.name().to_string(),
-        scenario: obj.scenario.name.clone(),
+        matcher: obj.simulated.scenario.localizer.matcher.name().to_string(),
+        scenario: obj.simulated.scenario.name.clone(),
         settings: spec.clone(),
         best_genes: named_genes(space, &last.best),
         best_fitness_mse: last.best_fitness,

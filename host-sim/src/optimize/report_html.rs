@@ -53,13 +53,14 @@ pub fn render(s: &SearchSummary, rows: &[GenerationRow]) -> String {
     let _ = writeln!(
         h,
         "<p>{} generations of {} individuals (elite {} %, crossover {} % of the rest), seed {}; \
-         {} simulated runs in {:.1} s of wall time. Stopped by {}.{}</p>",
+         {} genomes evaluated ({} simulated run(s) each) in {:.1} s of wall time. Stopped by {}.{}</p>",
         s.generations,
         st.population,
         st.elite_fraction * 100.0,
         st.crossover_fraction * 100.0,
         st.seed,
         s.evaluations,
+        st.runs_per_evaluation,
         s.wall_time_s,
         esc(&stop),
         if s.failed_evaluations > 0 {

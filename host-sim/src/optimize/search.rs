@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::fitness::SimulatedObjective;
+use super::fitness::SearchObjective;
 use super::ga::{self, EvaluationCache, Generation, Halt, Outcome};
 use super::genes::{GeneSpace, Genes};
 use super::store::{EvaluationLog, GenerationRow, SearchSpec, Shard, Store};
@@ -49,21 +49,22 @@ pub struct SearchState {
 pub fn objective(
     spec: &SearchSpec,
     scenario: &crate::scenario::Scenario,
-) -> Result<SimulatedObjective, String> {
+) -> Result<SearchObjective, String> {
     let model = loc_core::landmark::LandmarkModel::from_code(&spec.model)
         .ok_or_else(|| format!("search.json names an unknown model `{}`", spec.model))?;
-    Ok(SimulatedObjective {
-        scenario: scenario.clone(),
-        space: GeneSpace::for_model(model),
-    })
+    Ok(SearchObjective::new(
+        spec.objective,
+        scenario,
+        GeneSpace::for_model(model),
+    ))
 }
 
-/// Evaluates `genes` at `seed` in parallel, recording each result in `log` as it finishes;
+/// Evaluates `genes` over `seeds` in parallel, recording each result in `log` as it finishes;
 /// `None` where `interrupt` stopped it first.
 fn evaluate_all(
-    obj: &SimulatedObjective,
+    obj: &SearchObjective,
     genes: &[Genes],
-    seed: u64,
+    seeds: &[u64],
     log: &EvaluationLog,
     interrupt: &AtomicBool,
     failures: &Mutex<(usize, Option<String>)>,
@@ -76,12 +77,12 @@ fn evaluate_all(
             if interrupt.load(Ordering::Relaxed) {
                 return Ok(None);
             }
-            let fitness = match obj.evaluate(g, seed) {
-                Ok(e) if e.mse_eq2.is_finite() => e.mse_eq2,
+            let fitness = match obj.fitness(g, seeds) {
+                Ok(f) if f.is_finite() => f,
                 other => {
                     let reason = match other {
                         Err(e) => e,
-                        Ok(e) => format!("the run's MSE is {}", e.mse_eq2),
+                        Ok(f) => format!("the objective is {f}"),
                     };
                     if let Ok(mut f) = failures.lock() {
                         f.0 += 1;
@@ -102,11 +103,11 @@ fn evaluate_all(
 pub fn run(
     store: &Store,
     spec: &SearchSpec,
-    obj: &SimulatedObjective,
+    obj: &SearchObjective,
     evaluator: Evaluator<'_>,
     on_generation: &mut dyn FnMut(&GenerationRow),
 ) -> Result<SearchState, String> {
-    let space = &obj.space;
+    let space = obj.space();
     let mut cache = store.load_cache(space).map_err(|e| e.to_string())?;
     let log = store.evaluation_log(space).map_err(|e| e.to_string())?;
     let failures = Mutex::new((0usize, None));
@@ -127,7 +128,7 @@ pub fn run(
         let results = evaluate_all(
             obj,
             missing,
-            spec.seed,
+            &spec.evaluation_seeds(),
             &log,
             interrupt,
             &failures,
@@ -178,20 +179,28 @@ pub fn run(
 pub fn run_shard(
     store: &Store,
     spec: &SearchSpec,
-    obj: &SimulatedObjective,
+    obj: &SearchObjective,
     shard: Shard,
     interrupt: &AtomicBool,
 ) -> Result<usize, String> {
-    let pending = store.read_pending(&obj.space).map_err(|e| e.to_string())?;
+    let pending = store.read_pending(obj.space()).map_err(|e| e.to_string())?;
     let mine: Vec<Genes> = shard
         .members(pending.len())
         .map(|i| pending[i].clone())
         .collect();
     let log = store
-        .shard_log(&obj.space, shard)
+        .shard_log(obj.space(), shard)
         .map_err(|e| e.to_string())?;
     let failures = Mutex::new((0usize, None));
-    let results = evaluate_all(obj, &mine, spec.seed, &log, interrupt, &failures, &|_| {})?;
+    let results = evaluate_all(
+        obj,
+        &mine,
+        &spec.evaluation_seeds(),
+        &log,
+        interrupt,
+        &failures,
+        &|_| {},
+    )?;
     if results.iter().any(Option::is_none) {
         return Err("interrupted: run this shard again".into());
     }

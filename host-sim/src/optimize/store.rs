@@ -50,9 +50,28 @@ pub struct SearchSpec {
     pub seed: u64,
     /// Fresh seeds the best genome is validated on when the search ends.
     pub validation_seeds: usize,
+    /// Simulated runs averaged in each fitness (1: the paper's; more penalises a design
+    /// that fails on some seeds, at that many times the cost).
+    #[serde(default = "one_run")]
+    pub runs_per_evaluation: usize,
+    /// What the fitness is.
+    #[serde(default)]
+    pub objective: super::fitness::ObjectiveKind,
+}
+
+fn one_run() -> usize {
+    1
 }
 
 impl SearchSpec {
+    /// The seeds of every fitness: the search's seed, then `seed + 1000 k` (clear of the
+    /// validation seeds `seed + 1 …`).
+    pub fn evaluation_seeds(&self) -> Vec<u64> {
+        (0..self.runs_per_evaluation.max(1) as u64)
+            .map(|k| self.seed.wrapping_add(1000 * k))
+            .collect()
+    }
+
     /// The GA settings.
     pub fn ga(&self) -> GaSettings {
         GaSettings {
@@ -458,6 +477,8 @@ mod tests {
             tolerance: 0.001,
             seed: 3,
             validation_seeds: 3,
+            runs_per_evaluation: 1,
+            objective: Default::default(),
         }
     }
 

@@ -44,6 +44,8 @@ pub struct Budget {
     pub validation_seeds: usize,
     /// Metres of the scenario's drive (`None`: all of it).
     pub length_m: Option<f64>,
+    /// Simulated runs averaged per fitness (the paper: 1).
+    pub runs_per_evaluation: usize,
 }
 
 impl Budget {
@@ -53,6 +55,7 @@ impl Budget {
         generations: 100,
         validation_seeds: 15,
         length_m: None,
+        runs_per_evaluation: 1,
     };
     /// `--quick`: a few small generations over 4 m, 3 validation runs (a check that the
     /// table is produced, not a result).
@@ -61,6 +64,7 @@ impl Budget {
         generations: 3,
         validation_seeds: 3,
         length_m: Some(4.0),
+        runs_per_evaluation: 1,
     };
 }
 
@@ -110,6 +114,8 @@ pub fn run(
                     tolerance: 0.001,
                     seed,
                     validation_seeds: budget.validation_seeds,
+                    runs_per_evaluation: budget.runs_per_evaluation,
+                    objective: Default::default(),
                 };
                 Store::create(&dir, &spec, &s).map_err(|e| e.to_string())?;
                 Store::open(&dir).map_err(|e| e.to_string())?
@@ -140,7 +146,11 @@ pub fn run(
             // The table's wall time is the search's and its validation's, this session.
             summary.wall_time_s = started.elapsed().as_secs_f64();
             let (icp, hd) = paper_rms_m(model);
-            let paper = if matcher == MatcherChoice::Icp { icp } else { hd };
+            let paper = if matcher == MatcherChoice::Icp {
+                icp
+            } else {
+                hd
+            };
             progress(format!(
                 "{} {}: {} generations, {} runs, validated {:.2} ± {:.2} mm (paper {:.0} mm), D = {:.2} m, {:.0} s",
                 model.code(),

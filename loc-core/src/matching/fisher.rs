@@ -51,24 +51,42 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
     config: &MatchConfig,
     gate_m: f32,
 ) -> ScanInformation {
+    let (s, c) = crate::math::sin_cos(pose.theta_rad);
+    let pairs = points.iter().filter_map(|p| {
+        let p = p.vehicle_point();
+        let q = Point2::new(
+            c * p.x_m - s * p.y_m + pose.x_m,
+            s * p.x_m + c * p.y_m + pose.y_m,
+        );
+        let hit = map.nearest(q, gate_m)?;
+        if !hit.projection.distance_m.is_finite() {
+            return None;
+        }
+        // The residual's normal exactly as the matchers pair the point.
+        Some((p, paired(q, hit.segment, hit.projection, false).normal))
+    });
+    paired_information(pairs, pose, config)
+}
+
+/// The information of points already paired with their map geometry: each item is a point
+/// in the vehicle frame and the world-frame unit normal of the line it lies on (at `pose`,
+/// world frame). The accumulation [`scan_information`] ends with; for callers that know the
+/// pairing from the geometry itself (landmark design's Fisher objective), with no map search.
+pub fn paired_information(
+    pairs: impl Iterator<Item = (Point2, Point2)>,
+    pose: Pose2,
+    config: &MatchConfig,
+) -> ScanInformation {
     let sigma = config.range_noise_sigma_m;
     let mut eq = NormalEquations::default();
     let mut patches = PatchSums::new(&config.roughness, sigma, pose.theta_rad);
     let (s, c) = crate::math::sin_cos(pose.theta_rad);
     let t = pose.translation();
-    for p in points.iter().map(VehiclePoint::vehicle_point) {
+    for (p, n) in pairs {
         let q = Point2::new(
             c * p.x_m - s * p.y_m + pose.x_m,
             s * p.x_m + c * p.y_m + pose.y_m,
         );
-        let Some(hit) = map.nearest(q, gate_m) else {
-            continue;
-        };
-        if !hit.projection.distance_m.is_finite() {
-            continue;
-        }
-        // The residual's normal exactly as the matchers pair the point.
-        let n = paired(q, hit.segment, hit.projection, false).normal;
         match patches.as_mut() {
             Some(ps) => ps.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0),
             None => {

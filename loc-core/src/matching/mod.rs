@@ -62,7 +62,7 @@ mod prealign;
 pub use association::{
     associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
 };
-pub use fisher::{scan_information, ScanInformation};
+pub use fisher::{paired_information, scan_information, ScanInformation};
 pub use guided::{
     match_scan_with_prealign, GuidedMatch, PositionPrior, COARSE_CONVERGENCE_FACTOR,
     COARSE_MATCH_POINTS,
