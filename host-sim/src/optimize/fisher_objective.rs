@@ -164,8 +164,9 @@ impl FisherObjective {
         };
         // Landmarks within reach of any sampled position: centres on the left at
         // first + kD, on the right D/2 later, over a stretch around [0, D).
-        let reach =
-            self.landmark_range_m + 2.0 * profile.iter().map(|p| p.0.abs()).fold(0.0, f64::max);
+        let half_extent = profile.iter().map(|p| p.0.abs()).fold(0.0, f64::max);
+        let reach = self.landmark_range_m + 2.0 * half_extent;
+        let mut vertices: Vec<(f64, f64)> = Vec::with_capacity(profile.len());
         let k0 = ((-reach - self.first_m) / spacing).floor() as i64 - 1;
         let k1 = ((spacing + reach - self.first_m) / spacing).ceil() as i64 + 1;
         let mut worst = 0.0f64;
@@ -184,14 +185,18 @@ impl FisherObjective {
                 for (side, offset) in [(1.0, 0.0), (-1.0, spacing / 2.0)] {
                     for j in k0..=k1 {
                         let c = self.first_m + offset + j as f64 * spacing;
-                        if (c - o.0).abs() > reach {
+                        // Within reach ahead; behind the sensor only what the 190° fan
+                        // still sees (5° past the perpendicular: well within a metre).
+                        if c - o.0 > reach || o.0 - c > 1.0 + half_extent {
                             continue;
                         }
-                        let v: Vec<(f64, f64)> = profile
-                            .iter()
-                            .map(|&(u, h)| (c + u, side * (self.half_width_m - h)))
-                            .collect();
-                        self.trace_landmark(o, &v, &mut nearest, &mut touched);
+                        vertices.clear();
+                        vertices.extend(
+                            profile
+                                .iter()
+                                .map(|&(u, h)| (c + u, side * (self.half_width_m - h))),
+                        );
+                        self.trace_landmark(o, &vertices, &mut nearest, &mut touched);
                     }
                 }
                 let pairs = touched.iter().filter_map(|&i| {
