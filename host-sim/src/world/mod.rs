@@ -65,21 +65,7 @@ impl World {
         profile: Profile,
         rng: &mut Pcg32,
     ) -> Self {
-        let len = tunnel.centerline.length_m();
-        let left = RoughnessProfile::generate(
-            0.0,
-            len,
-            tunnel.roughness_sigma_m,
-            tunnel.roughness_correlation_m,
-            rng,
-        );
-        let right = RoughnessProfile::generate(
-            0.0,
-            len,
-            tunnel.roughness_sigma_m,
-            tunnel.roughness_correlation_m,
-            rng,
-        );
+        let (left, right) = Self::roughness(tunnel, rng);
         let placements = if profile.is_empty() {
             Vec::new()
         } else {
@@ -88,6 +74,50 @@ impl World {
                 .flat_map(|l| layout::place_landmarks(l, rng))
                 .collect()
         };
+        Self::assemble(tunnel, left, right, placements, profile)
+    }
+
+    /// Builds the tunnel with landmarks at the given placements (a designed layout, e.g.
+    /// `host-sim design`'s) instead of drawing them; the walls' roughness still comes from
+    /// `rng`.
+    pub fn with_placements(
+        tunnel: &TunnelSpec,
+        placements: Vec<Placement>,
+        profile: Profile,
+        rng: &mut Pcg32,
+    ) -> Self {
+        let (left, right) = Self::roughness(tunnel, rng);
+        let placements = if profile.is_empty() {
+            Vec::new()
+        } else {
+            placements
+        };
+        Self::assemble(tunnel, left, right, placements, profile)
+    }
+
+    /// The left and right walls' roughness, drawn in that order.
+    fn roughness(tunnel: &TunnelSpec, rng: &mut Pcg32) -> (RoughnessProfile, RoughnessProfile) {
+        let len = tunnel.centerline.length_m();
+        let mut draw = || {
+            RoughnessProfile::generate(
+                0.0,
+                len,
+                tunnel.roughness_sigma_m,
+                tunnel.roughness_correlation_m,
+                rng,
+            )
+        };
+        let left = draw();
+        (left, draw())
+    }
+
+    fn assemble(
+        tunnel: &TunnelSpec,
+        left: RoughnessProfile,
+        right: RoughnessProfile,
+        placements: Vec<Placement>,
+        profile: Profile,
+    ) -> Self {
         let mut world = Self {
             centerline: tunnel.centerline.clone(),
             width_m: tunnel.width_m,
