@@ -15,6 +15,7 @@
 //! The simulator's own state is `f64`; what goes into loc-core is `f32`, as on the MCU.
 
 pub mod closed_loop;
+pub mod design;
 pub mod estimator;
 pub mod landmarks;
 pub mod lidar;

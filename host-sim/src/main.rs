@@ -68,6 +68,9 @@ enum Command {
     /// GA + simulated MSE, GA + Fisher bound and CMA-ES + Fisher bound for one model, each
     /// optimum validated by simulation (comparison.md in --out).
     CompareObjectives(CompareArgs),
+    /// What an engineer takes underground: installation schedule, 1:1 cutting template,
+    /// bill of materials, the map file and the predicted accuracy along the tunnel.
+    Design(DesignArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -325,6 +328,57 @@ struct CompareArgs {
     #[arg(long)]
     out: PathBuf,
     /// Print the comparison as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct DesignArgs {
+    /// Scenario file (TOML) with the tunnel (default: --scenario tunnel-1km).
+    file: Option<PathBuf>,
+    /// Named scenario: paper-10m, tunnel-1km, demo-200m.
+    #[arg(long, conflicts_with_all = ["file", "centerline"])]
+    scenario: Option<String>,
+    /// A surveyed centre line instead: CSV of x,y in metres (with --width).
+    #[arg(long, conflicts_with = "file")]
+    centerline: Option<PathBuf>,
+    /// Tunnel width for --centerline, metres.
+    #[arg(long, default_value_t = 5.0)]
+    width: f64,
+    /// Landmark model: p1…f4 (default: the search's with --from-search).
+    #[arg(long)]
+    model: Option<String>,
+    /// Genes W,H,D[,h1..h6] (default: the paper's optimum of the model).
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "from_search")]
+    genes: Option<String>,
+    /// Take the model and genes from a finished `optimize` search directory.
+    #[arg(long)]
+    from_search: Option<PathBuf>,
+    /// Target 1σ along-tunnel accuracy of one scan, millimetres.
+    #[arg(long, default_value_t = 10.0)]
+    target_mm: f64,
+    /// Consecutive spacings that must identify every position.
+    #[arg(long, default_value_t = 3)]
+    window: usize,
+    /// Spacings closer than this cannot be told apart, millimetres.
+    #[arg(long, default_value_t = 50.0)]
+    spacing_tolerance_mm: f64,
+    /// Height of the lidar's scan plane above the floor, where landmarks are mounted, metres.
+    #[arg(long, default_value_t = 1.2)]
+    mounting_height: f64,
+    /// Vertical extent of each landmark, metres (for the sheet area).
+    #[arg(long, default_value_t = 0.3)]
+    depth: f64,
+    /// Chainage step of the predicted accuracy, metres.
+    #[arg(long, default_value_t = 1.0)]
+    step: f64,
+    /// Seed of the spacing draw.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the report as JSON.
     #[arg(long)]
     json: bool,
 }
@@ -1042,6 +1096,85 @@ fn cmd_compare(a: &CompareArgs) -> Result<(), String> {
     }
 }
 
+fn cmd_design(a: &DesignArgs) -> Result<(), String> {
+    check_output_dir("--out", Some(&a.out))?;
+    let mut scenario = match (&a.centerline, &a.file, &a.scenario) {
+        (Some(csv), _, _) => {
+            let mut s = named("tunnel-1km").map_err(|e| e.to_string())?;
+            s.name = csv.display().to_string();
+            s.tunnel.pieces.clear();
+            s.tunnel.csv = Some(std::path::absolute(csv).map_err(|e| e.to_string())?);
+            s.tunnel.width_m = a.width;
+            s.drive.start_m = 0.0;
+            // The whole line, once its length is known (below).
+            s.drive.end_m = 1.0;
+            s
+        }
+        (None, Some(f), _) => Scenario::from_file(f).map_err(|e| e.to_string())?,
+        (None, None, n) => {
+            named(n.as_deref().unwrap_or("tunnel-1km")).map_err(|e| e.to_string())?
+        }
+    };
+    let line = scenario.centerline().map_err(|e| e.to_string())?;
+    if a.centerline.is_some() {
+        scenario.drive.end_m = line.length_m();
+    }
+    let (model, genes) = match &a.from_search {
+        Some(dir) => {
+            let p = dir.join("summary.json");
+            let text = std::fs::read_to_string(&p).map_err(|e| {
+                format!(
+                    "{}: {e} (a finished `optimize` search has one)",
+                    p.display()
+                )
+            })?;
+            let v: serde_json::Value =
+                serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))?;
+            let model = v["model"].as_str().unwrap_or_default().to_ascii_lowercase();
+            let genes: Option<Vec<f64>> = v["best_genes"]
+                .as_array()
+                .map(|g| g.iter().filter_map(|x| x["value"].as_f64()).collect());
+            (a.model.clone().unwrap_or(model), genes)
+        }
+        None => (
+            a.model
+                .clone()
+                .ok_or("give --model p1…f4 or --from-search DIR")?,
+            a.genes
+                .as_deref()
+                .map(host_sim::landmarks::LandmarkChoice::parse_genes)
+                .transpose()
+                .map_err(|e| e.to_string())?,
+        ),
+    };
+    let choice = host_sim::landmarks::LandmarkChoice::parse(&model, genes.as_deref())
+        .map_err(|e| e.to_string())?;
+    if !(a.step > 0.0 && a.target_mm > 0.0 && a.spacing_tolerance_mm > 0.0 && a.window >= 1) {
+        return Err(
+            "--step, --target-mm and --spacing-tolerance-mm must be positive, --window at least 1"
+                .into(),
+        );
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let req = host_sim::design::DesignRequest {
+        scenario,
+        choice,
+        target_along_m: a.target_mm / 1e3,
+        window: a.window,
+        tolerance_m: a.spacing_tolerance_mm / 1e3,
+        mounting_height_m: a.mounting_height,
+        landmark_depth_m: a.depth,
+        step_m: a.step,
+        seed: a.seed,
+    };
+    let r = host_sim::design::design(&req, &a.out)?;
+    if a.json {
+        out(&serde_json::to_string(&r).map_err(|e| e.to_string())?)
+    } else {
+        out(&host_sim::design::text(&r))
+    }
+}
+
 /// The text summary of a finished search.
 fn optimize_report(s: &optimize::SearchSummary) -> String {
     let genes: Vec<String> = s
@@ -1126,6 +1259,7 @@ fn main() -> ExitCode {
         Command::Optimize(a) => cmd_optimize(a),
         Command::Table2(a) => cmd_table2(a),
         Command::CompareObjectives(a) => cmd_compare(a),
+        Command::Design(a) => cmd_design(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

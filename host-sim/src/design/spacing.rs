@@ -55,11 +55,15 @@ pub fn ambiguous_pair(d: &[f64], window: usize, tolerance_m: f64) -> Option<(usi
         return None;
     }
     let n = d.len() + 1 - window;
-    (0..n).find_map(|i| ((i + 1)..n).find(|&j| same(d, i, j, window, tolerance_m)).map(|j| (i, j)))
+    (0..n).find_map(|i| {
+        ((i + 1)..n)
+            .find(|&j| same(d, i, j, window, tolerance_m))
+            .map(|j| (i, j))
+    })
 }
 
 /// The shortest window that tells every position apart (every window of that many
-/// spacings unique), or `None` if even the whole sequence repeats.
+/// spacings unique); the whole sequence when nothing shorter does, `None` for no spacing.
 pub fn shortest_unique_window(d: &[f64], tolerance_m: f64) -> Option<usize> {
     (1..=d.len()).find(|&k| ambiguous_pair(d, k, tolerance_m).is_none())
 }
@@ -125,8 +129,9 @@ mod tests {
         // Within tolerance counts as the same.
         assert_eq!(ambiguous_pair(&[9.0, 9.04], 1, 0.05), Some((0, 1)));
         assert_eq!(ambiguous_pair(&[9.0, 9.06], 1, 0.05), None);
-        // A constant sequence never identifies a position.
-        assert_eq!(shortest_unique_window(&[9.0; 6], 0.05), None);
+        // A constant sequence identifies no position short of the whole wall.
+        assert_eq!(shortest_unique_window(&[9.0; 6], 0.05), Some(6));
+        assert_eq!(shortest_unique_window(&[], 0.05), None);
     }
 
     #[test]

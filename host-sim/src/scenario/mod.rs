@@ -757,17 +757,21 @@ impl Scenario {
             })
     }
 
-    /// Builds the world (true geometry and design) from the scenario's seed.
-    pub fn build_world(&self) -> Result<World, ScenarioError> {
-        let centerline = self.centerline()?;
-        let choice = self.landmark_choice()?;
-        let len = centerline.length_m();
-        let tunnel = TunnelSpec {
-            centerline,
+    /// The tunnel's geometry: centre line, width, wall roughness.
+    pub fn tunnel_spec(&self) -> Result<TunnelSpec, ScenarioError> {
+        Ok(TunnelSpec {
+            centerline: self.centerline()?,
             width_m: self.tunnel.width_m,
             roughness_sigma_m: self.tunnel.roughness_sigma_m,
             roughness_correlation_m: self.tunnel.roughness_correlation_m,
-        };
+        })
+    }
+
+    /// Builds the world (true geometry and design) from the scenario's seed.
+    pub fn build_world(&self) -> Result<World, ScenarioError> {
+        let tunnel = self.tunnel_spec()?;
+        let choice = self.landmark_choice()?;
+        let len = tunnel.centerline.length_m();
         let l = &self.landmarks;
         let omission = match (l.missing_every, l.missing_fraction) {
             (Some(n), _) => Omission::EveryNth(n),
