@@ -2,6 +2,7 @@
 //! noise-free LMS511 scan from the centre line, its Cramér–Rao bound (the replay's
 //! [`ScanBound`]: loc-core's Fisher information with the localiser's own noise and
 //! roughness model) split along and across the tunnel; the stretches above the target.
+//! The plot shades the curves and the gaps (chainages no landmark in reach fixes).
 
 use std::path::{Path, PathBuf};
 
@@ -168,6 +169,18 @@ fn draw<DB: DrawingBackend>(
         .map_err(msg)?
         .label("in a curve")
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], curve));
+    // Gaps: no landmark in reach, the chainage not fixed at all.
+    let gap = RGBColor(250, 200, 200).filled();
+    chart
+        .draw_series(
+            points
+                .windows(2)
+                .filter(|w| !w[0].along_sd_m.is_finite())
+                .map(|w| Rectangle::new([(w[0].chainage_m, y0), (w[1].chainage_m, y1)], gap)),
+        )
+        .map_err(msg)?
+        .label("gap: no landmark in reach")
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], gap));
     for (label, colour, f) in [
         (
             "across",
