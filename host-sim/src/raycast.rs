@@ -301,7 +301,12 @@ impl SegmentGrid {
 }
 
 /// Distance along a unit-direction ray `o + t·d` (t ≥ 0) to segment `a`–`b`, if they meet.
-fn ray_segment(o: (f64, f64), d: (f64, f64), a: (f64, f64), b: (f64, f64)) -> Option<f64> {
+pub(crate) fn ray_segment(
+    o: (f64, f64),
+    d: (f64, f64),
+    a: (f64, f64),
+    b: (f64, f64),
+) -> Option<f64> {
     let e = (b.0 - a.0, b.1 - a.1);
     let denom = d.0 * e.1 - d.1 * e.0;
     if denom.abs() < 1e-15 {

@@ -12,12 +12,10 @@ use loc_core::rng::Pcg32;
 use serde::Serialize;
 
 use super::fitness::{ObjectiveKind, SearchObjective};
-use super::ga::{Halt, Outcome};
 use super::genes::GeneSpace;
-use super::search::{self, Evaluator};
-use super::store::{GenerationRow, SearchSpec, Store};
+use super::store::SearchSpec;
 use super::validation::{self, Validation};
-use super::{cmaes_search, finish, named_genes, NamedGene};
+use super::{cmaes_search, complete_search, named_genes, NamedGene};
 use crate::scenario::Scenario;
 
 /// One optimiser + objective pair's result.
@@ -69,45 +67,26 @@ fn ga_search(
     objective: ObjectiveKind,
     interrupt: &AtomicBool,
 ) -> Result<(super::SearchSummary, f64), String> {
-    let (store, spec, scenario) = if dir.join("search.json").exists() {
-        Store::open(dir).map_err(|e| e.to_string())?
-    } else {
-        let spec = SearchSpec {
-            model: model.code().to_string(),
-            population: 100,
-            elite_fraction: 0.05,
-            crossover_fraction: 0.75,
-            max_generations: 100,
-            stall_generations: 10,
-            tolerance: 0.001,
-            seed,
-            validation_seeds: 15,
-            runs_per_evaluation: 1,
-            objective,
-        };
-        Store::create(dir, &spec, scenario).map_err(|e| e.to_string())?;
-        Store::open(dir).map_err(|e| e.to_string())?
-    };
-    let obj = search::objective(&spec, &scenario)?;
-    let state = search::run(
-        &store,
-        &spec,
-        &obj,
-        Evaluator::Local {
-            interrupt,
-            progress: &|_, _, _| {},
+    complete_search(
+        dir,
+        || {
+            let spec = SearchSpec {
+                model: model.code().to_string(),
+                population: 100,
+                elite_fraction: 0.05,
+                crossover_fraction: 0.75,
+                max_generations: 100,
+                stall_generations: 10,
+                tolerance: 0.001,
+                seed,
+                validation_seeds: 15,
+                runs_per_evaluation: 1,
+                objective,
+            };
+            (spec, scenario.clone())
         },
-        &mut |_: &GenerationRow| {},
-    )?;
-    let reason = match state.outcome {
-        Outcome::Finished(r) => r,
-        Outcome::Halted(Halt::Interrupted) => {
-            return Err("interrupted: run the same command again to continue".into())
-        }
-        Outcome::Halted(h) => return Err(format!("{h:?}")),
-    };
-    let wall = state.wall_time_s;
-    Ok((finish(&store, &spec, &obj, &state, reason)?, wall))
+        interrupt,
+    )
 }
 
 /// Runs the comparison for `model` in `scenario` into `out` (the two GA searches are full

@@ -57,25 +57,16 @@ pub struct FisherObjective {
     laterals: Vec<(f64, Matrix3<f32>)>,
 }
 
-/// The nearest hit of ray `o + t d` (t > 0) with segment `a b`: `t` and the segment's unit
-/// normal.
+/// Where ray `o + t d` (t > 0) meets segment `a b`: `t` and the segment's unit normal
+/// (the intersection is the ray caster's, [`crate::raycast`]).
 fn ray_segment(
     o: (f64, f64),
     d: (f64, f64),
     a: (f64, f64),
     b: (f64, f64),
 ) -> Option<(f64, (f64, f64))> {
+    let t = crate::raycast::ray_segment(o, d, a, b).filter(|&t| t > 1e-9)?;
     let e = (b.0 - a.0, b.1 - a.1);
-    let den = d.0 * e.1 - d.1 * e.0;
-    if den.abs() < 1e-12 {
-        return None;
-    }
-    let w = (a.0 - o.0, a.1 - o.1);
-    let t = (w.0 * e.1 - w.1 * e.0) / den;
-    let u = (w.0 * d.1 - w.1 * d.0) / den;
-    if t <= 1e-9 || !(0.0..=1.0).contains(&u) {
-        return None;
-    }
     let len = e.0.hypot(e.1);
     Some((t, (-e.1 / len, e.0 / len)))
 }

@@ -185,3 +185,43 @@ fn first_median(store: &Store, space: &GeneSpace) -> Result<genes::Genes, String
     };
     Ok(g.median().0.clone())
 }
+
+/// Opens the search in `dir` (or creates it from `new()` when the directory holds none),
+/// runs it to its end on this machine without progress output and finishes it. Returns the
+/// summary and the wall time of the GA loop alone (validation excluded), seconds. What
+/// `table2` and `compare-objectives` run each search with.
+pub fn complete_search(
+    dir: &std::path::Path,
+    new: impl FnOnce() -> (SearchSpec, crate::scenario::Scenario),
+    interrupt: &std::sync::atomic::AtomicBool,
+) -> Result<(SearchSummary, f64), String> {
+    if !dir.join("search.json").exists() {
+        let (spec, scenario) = new();
+        Store::create(dir, &spec, &scenario).map_err(|e| e.to_string())?;
+    }
+    // Every session reads the scenario back from the directory: the same values to the bit.
+    let (store, spec, scenario) = Store::open(dir).map_err(|e| e.to_string())?;
+    let obj = search::objective(&spec, &scenario)?;
+    let state = search::run(
+        &store,
+        &spec,
+        &obj,
+        search::Evaluator::Local {
+            interrupt,
+            progress: &|_, _, _| {},
+        },
+        &mut |_: &store::GenerationRow| {},
+    )?;
+    let reason = match state.outcome {
+        ga::Outcome::Finished(r) => r,
+        ga::Outcome::Halted(ga::Halt::Interrupted) => {
+            return Err(format!(
+                "interrupted in {}: run the same command again to continue",
+                dir.display()
+            ))
+        }
+        ga::Outcome::Halted(h) => return Err(format!("{}: {h:?}", dir.display())),
+    };
+    let wall = state.wall_time_s;
+    Ok((finish(&store, &spec, &obj, &state, reason)?, wall))
+}

@@ -13,10 +13,8 @@ use std::time::Instant;
 use loc_core::landmark::LandmarkModel;
 use serde::Serialize;
 
-use super::ga::{Halt, Outcome};
-use super::search::{self, Evaluator};
-use super::store::{GenerationRow, SearchSpec, Store};
-use super::{finish, SearchSummary};
+use super::store::SearchSpec;
+use super::{complete_search, SearchSummary};
 use crate::scenario::{MatcherChoice, Scenario};
 
 /// The paper's Table 2: RMS localisation error (m) of each optimum, (ICP, Hausdorff).
@@ -95,54 +93,32 @@ pub fn run(
                 matcher.name()
             ));
             let started = Instant::now();
-            let (store, spec, scenario) = if dir.join("search.json").exists() {
-                Store::open(&dir).map_err(|e| e.to_string())?
-            } else {
-                let mut s = base.clone();
-                s.localizer.matcher = matcher;
-                s.seed = seed;
-                if let Some(len) = budget.length_m {
-                    s.drive.end_m = s.drive.start_m + len;
-                }
-                let spec = SearchSpec {
-                    model: model.code().to_string(),
-                    population: budget.population,
-                    elite_fraction: 0.05,
-                    crossover_fraction: 0.75,
-                    max_generations: budget.generations,
-                    stall_generations: 10,
-                    tolerance: 0.001,
-                    seed,
-                    validation_seeds: budget.validation_seeds,
-                    runs_per_evaluation: budget.runs_per_evaluation,
-                    objective: Default::default(),
-                };
-                Store::create(&dir, &spec, &s).map_err(|e| e.to_string())?;
-                Store::open(&dir).map_err(|e| e.to_string())?
-            };
-            let obj = search::objective(&spec, &scenario)?;
-            let quiet = |_: usize, _: usize, _: usize| {};
-            let state = search::run(
-                &store,
-                &spec,
-                &obj,
-                Evaluator::Local {
-                    interrupt,
-                    progress: &quiet,
+            let (mut summary, _) = complete_search(
+                &dir,
+                || {
+                    let mut s = base.clone();
+                    s.localizer.matcher = matcher;
+                    s.seed = seed;
+                    if let Some(len) = budget.length_m {
+                        s.drive.end_m = s.drive.start_m + len;
+                    }
+                    let spec = SearchSpec {
+                        model: model.code().to_string(),
+                        population: budget.population,
+                        elite_fraction: 0.05,
+                        crossover_fraction: 0.75,
+                        max_generations: budget.generations,
+                        stall_generations: 10,
+                        tolerance: 0.001,
+                        seed,
+                        validation_seeds: budget.validation_seeds,
+                        runs_per_evaluation: budget.runs_per_evaluation,
+                        objective: Default::default(),
+                    };
+                    (spec, s)
                 },
-                &mut |_: &GenerationRow| {},
+                interrupt,
             )?;
-            let reason = match state.outcome {
-                Outcome::Finished(r) => r,
-                Outcome::Halted(Halt::Interrupted) => {
-                    return Err(format!(
-                        "interrupted in {}: run the same command again to continue",
-                        dir.display()
-                    ))
-                }
-                Outcome::Halted(h) => return Err(format!("{}: {h:?}", dir.display())),
-            };
-            let mut summary = finish(&store, &spec, &obj, &state, reason)?;
             // The table's wall time is the search's and its validation's, this session.
             summary.wall_time_s = started.elapsed().as_secs_f64();
             let (icp, hd) = paper_rms_m(model);

@@ -87,11 +87,6 @@ impl World {
         rng: &mut Pcg32,
     ) -> Self {
         let (left, right) = Self::roughness(tunnel, rng);
-        let placements = if profile.is_empty() {
-            Vec::new()
-        } else {
-            placements
-        };
         Self::assemble(tunnel, left, right, placements, profile)
     }
 
@@ -111,13 +106,17 @@ impl World {
         (left, draw())
     }
 
+    /// The world of these walls and landmarks (none without a profile) and its index.
     fn assemble(
         tunnel: &TunnelSpec,
         left: RoughnessProfile,
         right: RoughnessProfile,
-        placements: Vec<Placement>,
+        mut placements: Vec<Placement>,
         profile: Profile,
     ) -> Self {
+        if profile.is_empty() {
+            placements.clear();
+        }
         let mut world = Self {
             centerline: tunnel.centerline.clone(),
             width_m: tunnel.width_m,
