@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of the project: host unit, property and integration tests of the
-# workspace, lints, the core's Cortex-M build, and the firmware under QEMU.
+# workspace, lints, the core's Cortex-M build, the landmark search on a one-node Slurm
+# cluster, report.html in headless Chromium, and the firmware under QEMU.
 # Ends with one line `Summary: N passed, N failed` (cargo's `test result:` lines are
 # summed into it, plus one count per non-cargo step).
 set -uo pipefail

@@ -20,6 +20,8 @@ cluster_install() {
   command -v slurmd >/dev/null 2>&1 || need+=(slurmd)
   command -v sbatch >/dev/null 2>&1 || need+=(slurm-client)
   command -v munged >/dev/null 2>&1 || need+=(munge)
+  command -v ip >/dev/null 2>&1 || need+=(iproute2)
+  command -v unshare >/dev/null 2>&1 || need+=(util-linux)
   if [ ${#need[@]} -gt 0 ]; then
     echo "slurm: installing ${need[*]} from Debian's packages"
     $SUDO apt-get update -qq
