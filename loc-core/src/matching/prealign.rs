@@ -296,15 +296,32 @@ fn nearest_landmark_centroid<M: MapQuery>(map: &M, p: Point2, radius_m: f32) -> 
             let _ = segs.push(seg);
         }
     });
+    // The base is the polyline's two ends (on the wall): the vertices only one segment
+    // has. Not the farthest-apart vertices: a triangle taller than 0.87 of its width has a
+    // face longer than its base, and heights measured from a face weigh a base corner,
+    // biasing the centroid by half the width. The farthest pair is the fallback for a map
+    // whose landmark is not one open polyline within the radius.
+    let shared = |q: Point2| segs.iter().filter(|s| s.a == q || s.b == q).count();
+    let mut ends: heapless::Vec<Point2, 2> = heapless::Vec::new();
+    for q in segs.iter().flat_map(|s| [s.a, s.b]) {
+        if shared(q) == 1 && !ends.contains(&q) && ends.push(q).is_err() {
+            ends.clear();
+            break;
+        }
+    }
     let mut base = (plain, plain);
-    let mut best = -1.0f32;
-    for s1 in &segs {
-        for s2 in &segs {
-            for (a, b) in [(s1.a, s2.a), (s1.a, s2.b), (s1.b, s2.a), (s1.b, s2.b)] {
-                let d = a.dist_sq(b);
-                if d > best {
-                    best = d;
-                    base = (a, b);
+    if let [a, b] = ends.as_slice() {
+        base = (*a, *b);
+    } else {
+        let mut best = -1.0f32;
+        for s1 in &segs {
+            for s2 in &segs {
+                for (a, b) in [(s1.a, s2.a), (s1.a, s2.b), (s1.b, s2.a), (s1.b, s2.b)] {
+                    let d = a.dist_sq(b);
+                    if d > best {
+                        best = d;
+                        base = (a, b);
+                    }
                 }
             }
         }
@@ -337,6 +354,8 @@ fn nearest_landmark_centroid<M: MapQuery>(map: &M, p: Point2, radius_m: f32) -> 
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
+
     use super::*;
     use crate::strip::{Cubic, LabelCounts, WallFit, XScaling};
 
@@ -347,6 +366,47 @@ mod tests {
             cubic: Cubic::through(pts, s).unwrap(),
             inliers: 100,
             rms_m: 0.01,
+        }
+    }
+
+    #[test]
+    fn map_centroids_sit_on_the_landmark_axis_whatever_its_proportions() {
+        use crate::landmark::{Genome, LandmarkModel, LandmarkShape};
+        use crate::map::TunnelMap;
+        use crate::testkit::{LandmarkLayout, TunnelSpec};
+        // Flat, square and tall triangles (a tall one's faces are longer than its base).
+        for (model, w, h, expect_u) in [
+            (LandmarkModel::P1Triangle, 0.5, 0.25, 0.0),
+            (LandmarkModel::P1Triangle, 0.28, 0.3, 0.0),
+            (LandmarkModel::P1Triangle, 0.1, 0.3, 0.0),
+        ] {
+            let genome = Genome {
+                width_m: w,
+                height_m: h,
+                spacing_m: 9.0,
+                ..Genome::default()
+            };
+            let layout = LandmarkLayout {
+                shape: LandmarkShape::new(model, genome),
+                seed: 3,
+                first_s_m: 2.0,
+            };
+            let mut map = std::boxed::Box::new(TunnelMap::new());
+            TunnelSpec::straight(60.0)
+                .with_landmarks(layout)
+                .build_into(&mut map)
+                .unwrap();
+            assert!(map.landmarks().len() >= 10);
+            for l in map.landmarks() {
+                let f = l.frame;
+                let probe = f.anchor.add(f.inward_normal.scale(0.1));
+                let c = nearest_landmark_centroid(&*map, probe, 2.5).unwrap();
+                let u = c.sub(f.anchor).dot(f.tangent);
+                assert!(
+                    (u - expect_u).abs() < 0.005,
+                    "{model:?} W {w} H {h}: centroid {u:.3} m along from the centre"
+                );
+            }
         }
     }
 
