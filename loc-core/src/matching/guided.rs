@@ -101,7 +101,7 @@ impl PositionPrior {
 /// pre-aligning on the landmark clusters of `points`/`labels` (the whole scan in beam order
 /// and its stripping labels) as described in the module docs. `prior` is the predicted
 /// position's uncertainty ([`PositionPrior::UNKNOWN`] if unknown): when its
-/// [`PositionPrior::sd_m`] is below a third of `prealign.min_shift_m` the pre-alignment is
+/// [`PositionPrior::sd_m`] is below `prealign.min_prior_sd_m` the pre-alignment is
 /// skipped, and a shift beyond `prealign.max_shift_sigmas` of its
 /// [`PositionPrior::sd_along_m`] is not applied.
 #[allow(clippy::too_many_arguments)]
@@ -117,10 +117,10 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
-    // A prediction known to within a third of `min_shift_m` cannot profit from a
-    // pre-alignment (it would be ignored anyway): skip its cost.
+    // A prediction known to within `min_prior_sd_m` cannot profit from a pre-alignment:
+    // skip its cost.
     let prior_sd_m = prior.sd_m();
-    if prior_sd_m.is_finite() && 3.0 * prior_sd_m < prealign.min_shift_m {
+    if prior_sd_m.is_finite() && prior_sd_m < prealign.min_prior_sd_m {
         return Ok(GuidedMatch {
             result: match_scan(map, selected, predicted, config, workspace)?,
             prealign: None,

@@ -41,10 +41,13 @@ pub struct PrealignConfig {
     /// sparsely sampled and half hidden, their centroids biased).
     pub max_cluster_range_m: f32,
     /// Shifts shorter than this are not applied, metres: the pre-alignment's own bias is a
-    /// few centimetres, while the matchers converge from about ±0.1 m along the tunnel; in
-    /// steady tracking the prediction is better than the pre-alignment (see
-    /// [`super::match_scan_with_prealign`]).
+    /// centimetre or two, while the matchers converge from about a quarter of a landmark's
+    /// width along the tunnel (a P1 0.25 m wide fails from 0.1 m off).
     pub min_shift_m: f32,
+    /// The pre-alignment is not run at all for a prediction whose position 1σ is below
+    /// this, metres: in steady tracking the prediction is better than the pre-alignment
+    /// (see [`super::match_scan_with_prealign`]), and the cost is saved.
+    pub min_prior_sd_m: f32,
     /// Shifts longer than this many standard deviations of the predicted position are not
     /// applied by [`super::match_scan_with_prealign`]: the cluster met the wrong map landmark
     /// (with landmarks on one wall only, a few missing, the next one along can look right).
@@ -61,7 +64,8 @@ impl Default for PrealignConfig {
             min_cluster_points: 4,
             max_disagreement_m: 0.25,
             max_cluster_range_m: 20.0,
-            min_shift_m: 0.12,
+            min_shift_m: 0.06,
+            min_prior_sd_m: 0.04,
             max_shift_sigmas: 4.0,
         }
     }
