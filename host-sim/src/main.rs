@@ -216,6 +216,7 @@ enum ObjectiveArg {
 #[derive(Args)]
 struct OptimizeArgs {
     /// Scenario file (TOML) to evaluate in (default: --scenario paper-10m).
+    #[arg(conflicts_with = "resume")]
     file: Option<PathBuf>,
     /// Named scenario: paper-10m, tunnel-1km, demo-200m.
     #[arg(long, conflicts_with = "file")]
@@ -224,37 +225,42 @@ struct OptimizeArgs {
     #[arg(long, required_unless_present = "resume")]
     model: Option<String>,
     /// Scan matcher of the evaluations.
-    #[arg(long, value_enum)]
+    #[arg(long, conflicts_with = "resume", value_enum)]
     matcher: Option<MatcherArg>,
     /// Drive only this many metres of the scenario.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "resume")]
     length: Option<f64>,
     /// Individuals per generation (the paper: 100).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 100)]
     population: usize,
     /// Generations at most (the paper: 100).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 100)]
     generations: usize,
     /// Generations the stopping rule averages the relative decrease of the best fitness over.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 10)]
     stall_generations: usize,
     /// Stop when that average falls below this (the paper: 0.001 = 0.1 %).
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 0.001)]
     tolerance: f64,
     /// Seed of the GA's draws and of every evaluation.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 1)]
     seed: u64,
     /// Fresh seeds the best genome (and generation 1's median) is validated on at the end
     /// (at least 2).
-    #[arg(long, default_value_t = 15)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 15)]
     validation_seeds: usize,
     /// What the GA minimises: the simulated runs' MSE (the paper's) or the deterministic
     /// worst-case along-tunnel Cramér–Rao variance of one scan.
-    #[arg(long, value_enum, default_value = "simulation")]
+    #[arg(
+        long,
+        conflicts_with = "resume",
+        value_enum,
+        default_value = "simulation"
+    )]
     objective: ObjectiveArg,
     /// Simulated runs averaged in each fitness (1: the paper's; 3 penalises designs that
     /// fail on some seeds, at three times the cost).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 1)]
     runs_per_evaluation: usize,
     /// Directory of a new search (generations, evaluations, figures, report.html).
     #[arg(long, conflicts_with = "resume", required_unless_present = "resume")]
