@@ -6,6 +6,11 @@
 //! - `host-sim export-map`: the stored map the localiser gets (postcard bytes or JSON).
 //! - `host-sim replay DIR`: localises from a recording (`run --record DIR`, or a real
 //!   vehicle's) and prints the same metrics.
+//! - `host-sim optimize --model M --out DIR`: the paper's GA for a landmark design (resume,
+//!   cluster shards, Fisher objective); `host-sim table2`: its Table 2;
+//!   `host-sim compare-objectives`: GA/CMA-ES × simulation/Fisher.
+//! - `host-sim design --model M --out DIR`: schedule, cutting template, bill of materials,
+//!   map file and predicted accuracy of a layout.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
