@@ -420,6 +420,29 @@ struct ExportArgs {
     start_pose: Option<Vec<f64>>,
 }
 
+impl ScenarioArgs {
+    /// A scenario file or name (`default_name` when neither is given) without overrides.
+    fn base(file: &Option<PathBuf>, scenario: &Option<String>, default_name: &str) -> Self {
+        Self {
+            file: file.clone(),
+            scenario: match (file, scenario) {
+                (None, None) => Some(default_name.to_string()),
+                (_, s) => s.clone(),
+            },
+            landmarks: None,
+            genes: None,
+            matcher: None,
+            seed: None,
+            missing_every: None,
+            missing_fraction: None,
+            damage_fraction: None,
+            length: None,
+            speed: None,
+            rate: None,
+        }
+    }
+}
+
 fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
     let mut s = match (&a.file, &a.scenario) {
         (Some(f), _) => Scenario::from_file(f).map_err(|e| e.to_string())?,
@@ -847,21 +870,11 @@ fn open_search(a: &OptimizeArgs) -> Result<(Store, SearchSpec, Scenario), String
         .ok_or_else(|| format!("--model `{model}`: use p1, p2, p3, p4, f1, f2, f3 or f4"))?
         .code();
     let s = load_scenario(&ScenarioArgs {
-        file: a.file.clone(),
-        scenario: match (&a.file, &a.scenario) {
-            (None, None) => Some("paper-10m".into()),
-            (_, s) => s.clone(),
-        },
         landmarks: Some(code.to_ascii_lowercase()),
-        genes: None,
         matcher: a.matcher,
         seed: Some(a.seed),
-        missing_every: None,
-        missing_fraction: None,
-        damage_fraction: None,
         length: a.length,
-        speed: None,
-        rate: None,
+        ..ScenarioArgs::base(&a.file, &a.scenario, "paper-10m")
     })?;
     if a.population < 2 {
         return Err("--population must be at least 2".into());
@@ -1024,21 +1037,8 @@ fn cmd_table2(a: &Table2Args) -> Result<(), String> {
     use std::sync::atomic::{AtomicBool, Ordering};
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     let base = load_scenario(&ScenarioArgs {
-        file: a.file.clone(),
-        scenario: match (&a.file, &a.scenario) {
-            (None, None) => Some("paper-10m".into()),
-            (_, s) => s.clone(),
-        },
-        landmarks: None,
-        genes: None,
-        matcher: None,
         seed: Some(a.seed),
-        missing_every: None,
-        missing_fraction: None,
-        damage_fraction: None,
-        length: None,
-        speed: None,
-        rate: None,
+        ..ScenarioArgs::base(&a.file, &a.scenario, "paper-10m")
     })?;
     let _ = ctrlc::set_handler(|| {
         INTERRUPT.store(true, Ordering::SeqCst);

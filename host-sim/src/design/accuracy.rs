@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::lidar::{LidarSpec, Lms511};
 use crate::plot::style::{self, msg, FONT};
-use crate::plot::{both, PlotError, CHART_SIZE};
+use crate::plot::{plot_both, PlotError, CHART_SIZE};
 use crate::replay::bound::ScanBound;
 use crate::scenario::Scenario;
 use crate::vehicle::SimPose;
@@ -221,14 +221,9 @@ pub fn write_plot(
 ) -> Result<Vec<PathBuf>, PlotError> {
     style::register_font();
     let mut written = Vec::new();
-    both(
-        dir,
-        "accuracy",
-        CHART_SIZE,
-        |r| draw(r, title, points, target_m),
-        |r| draw(r, title, points, target_m),
-        &mut written,
-    )?;
+    plot_both!(dir, "accuracy", CHART_SIZE, &mut written, |r| draw(
+        r, title, points, target_m
+    ))?;
     Ok(written)
 }
 

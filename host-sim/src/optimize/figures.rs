@@ -12,7 +12,7 @@ use super::genes::{GeneSpace, Genes};
 use super::store::GenerationRow;
 use crate::plot::chart::{legend, log_panel, swatch, Series};
 use crate::plot::style::{self, msg, FONT};
-use crate::plot::{both, PlotError, CHART_SIZE};
+use crate::plot::{plot_both, PlotError, CHART_SIZE};
 
 /// Draws Figure 6.
 fn convergence<DB: DrawingBackend>(
@@ -213,32 +213,17 @@ pub fn write_figures(
 ) -> Result<Vec<PathBuf>, PlotError> {
     style::register_font();
     let mut written = Vec::new();
-    both(
-        dir,
-        "convergence",
-        CHART_SIZE,
-        |r| convergence(r, title, rows),
-        |r| convergence(r, title, rows),
-        &mut written,
-    )?;
-    both(
-        dir,
-        "shapes",
-        CHART_SIZE,
-        |r| shapes(r, title, space, rows),
-        |r| shapes(r, title, space, rows),
-        &mut written,
-    )?;
+    plot_both!(dir, "convergence", CHART_SIZE, &mut written, |r| {
+        convergence(r, title, rows)
+    })?;
+    plot_both!(dir, "shapes", CHART_SIZE, &mut written, |r| shapes(
+        r, title, space, rows
+    ))?;
     let d = |p: &[Genes]| -> Vec<f64> { p.iter().map(|g| g[GeneSpace::SPACING]).collect() };
     let (d_first, d_last) = (d(first.1), d(last.1));
-    both(
-        dir,
-        "spacing_histogram",
-        CHART_SIZE,
-        |r| spacing_histogram(r, title, space, (first.0, &d_first), (last.0, &d_last)),
-        |r| spacing_histogram(r, title, space, (first.0, &d_first), (last.0, &d_last)),
-        &mut written,
-    )?;
+    plot_both!(dir, "spacing_histogram", CHART_SIZE, &mut written, |r| {
+        spacing_histogram(r, title, space, (first.0, &d_first), (last.0, &d_last))
+    })?;
     Ok(written)
 }
 

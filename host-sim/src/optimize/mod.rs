@@ -117,11 +117,21 @@ pub fn finish(
         .generations
         .last()
         .ok_or("the search has no generation")?;
-    let (first_pop, _) = store.read_generation(space, 0).map_err(|e| e.to_string())?;
+    let (first_pop, first_fitness) = store.read_generation(space, 0).map_err(|e| e.to_string())?;
     let (last_pop, _) = store
         .read_generation(space, last.index)
         .map_err(|e| e.to_string())?;
-    let first_median = first_median(store, space)?;
+    if first_pop.is_empty() {
+        return Err("generation 1 is empty".into());
+    }
+    // The median genome by fitness of generation 1: a random design.
+    let first = ga::Generation {
+        index: 0,
+        population: first_pop,
+        fitness: first_fitness,
+        new_evaluations: 0,
+    };
+    let first_median = first.median().0.clone();
     let seeds = validation::fresh_seeds(spec.seed, spec.validation_seeds.max(2));
     let validation_best = validation::validate(&obj.simulated, &last.best, &seeds);
     let validation_first_median = validation::validate(&obj.simulated, &first_median, &seeds);
@@ -136,7 +146,7 @@ pub fn finish(
         &title,
         space,
         &state.generations,
-        (0, &first_pop),
+        (0, &first.population),
         (last.index, &last_pop),
     )
     .map_err(|e| e.to_string())?;
@@ -169,21 +179,6 @@ pub fn finish(
     let text = serde_json::to_string_pretty(&summary).map_err(|e| e.to_string())?;
     std::fs::write(&json, text).map_err(|e| format!("{}: {e}", json.display()))?;
     Ok(summary)
-}
-
-/// The median genome by fitness of generation 1 (index 0), read back from its file.
-fn first_median(store: &Store, space: &GeneSpace) -> Result<genes::Genes, String> {
-    let (pop, fitness) = store.read_generation(space, 0).map_err(|e| e.to_string())?;
-    if pop.is_empty() {
-        return Err("generation 1 is empty".into());
-    }
-    let g = ga::Generation {
-        index: 0,
-        population: pop,
-        fitness,
-        new_evaluations: 0,
-    };
-    Ok(g.median().0.clone())
 }
 
 /// Opens the search in `dir` (or creates it from `new()` when the directory holds none),

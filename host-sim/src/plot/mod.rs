@@ -31,6 +31,15 @@ pub const MAP_SIZE: (u32, u32) = (1600, 800);
 /// Image size of the error and covariance plots, pixels.
 pub const CHART_SIZE: (u32, u32) = (1400, 800);
 
+/// [`both`] with one drawing expression for the two backends (a closure cannot be generic
+/// over them, so the expression is written into both).
+macro_rules! plot_both {
+    ($dir:expr, $name:expr, $size:expr, $written:expr, |$r:ident| $draw:expr) => {
+        $crate::plot::both($dir, $name, $size, |$r| $draw, |$r| $draw, $written)
+    };
+}
+pub(crate) use plot_both;
+
 /// Draws `f` into `DIR/NAME.png` and `DIR/NAME.svg`.
 pub(crate) fn both(
     dir: &Path,
@@ -58,30 +67,15 @@ pub fn write_plots(dir: &Path, log: &RunLog, lines: &MapLines) -> Result<Vec<Pat
     let title = format!("{} ({})", log.scenario.name, log.estimator);
     let s = &log.samples;
     let mut written = Vec::new();
-    both(
-        dir,
-        "map",
-        MAP_SIZE,
-        |r| map_view::draw(r, &title, lines, s),
-        |r| map_view::draw(r, &title, lines, s),
-        &mut written,
-    )?;
-    both(
-        dir,
-        "error_vs_distance",
-        CHART_SIZE,
-        |r| error_plot::draw(r, &title, s),
-        |r| error_plot::draw(r, &title, s),
-        &mut written,
-    )?;
-    both(
-        dir,
-        "covariance",
-        CHART_SIZE,
-        |r| covariance_plot::draw(r, &title, s),
-        |r| covariance_plot::draw(r, &title, s),
-        &mut written,
-    )?;
+    plot_both!(dir, "map", MAP_SIZE, &mut written, |r| map_view::draw(
+        r, &title, lines, s
+    ))?;
+    plot_both!(dir, "error_vs_distance", CHART_SIZE, &mut written, |r| {
+        error_plot::draw(r, &title, s)
+    })?;
+    plot_both!(dir, "covariance", CHART_SIZE, &mut written, |r| {
+        covariance_plot::draw(r, &title, s)
+    })?;
     Ok(written)
 }
 
