@@ -134,6 +134,10 @@ struct ScenarioArgs {
     /// Fraction of present landmarks damaged (0–1; kind from the scenario, default bent 15°).
     #[arg(long)]
     damage_fraction: Option<f64>,
+    /// Landmarks mounted off their design marks: σ along the wall, metres (the design map
+    /// keeps the marks).
+    #[arg(long)]
+    install_sd: Option<f64>,
     /// Drive only this many metres from the start.
     #[arg(long)]
     length: Option<f64>,
@@ -418,6 +422,11 @@ struct ExportArgs {
     /// radians; σ default: the scenario's initial σ).
     #[arg(long, value_delimiter = ',', requires = "start_pose_out")]
     start_pose: Option<Vec<f64>>,
+    /// The true as-built map instead of the design: walls as built (a vertex every metre),
+    /// landmarks where they were installed, missing ones left out (simulation only: the
+    /// yardstick of `host-sim survey`).
+    #[arg(long)]
+    as_built: bool,
 }
 
 impl ScenarioArgs {
@@ -436,6 +445,7 @@ impl ScenarioArgs {
             missing_every: None,
             missing_fraction: None,
             damage_fraction: None,
+            install_sd: None,
             length: None,
             speed: None,
             rate: None,
@@ -465,6 +475,7 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
         missing_every: a.missing_every,
         missing_fraction: a.missing_fraction,
         damage_fraction: a.damage_fraction,
+        install_sd_m: a.install_sd,
         drive_length_m: a.length,
         speed_mps: a.speed,
         rate: a.rate.map(|r| match r {
@@ -556,7 +567,9 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
     }
     if let Some(dir) = &a.record {
         let (_, map_file) = record::scenario_map(&s).map_err(|e| e.to_string())?;
-        let files = record::write_recording(dir, &log, &map_file).map_err(|e| e.to_string())?;
+        let as_built = record::scenario_as_built_map(&s).map_err(|e| e.to_string())?;
+        let files = record::write_recording(dir, &log, &map_file, Some(&as_built))
+            .map_err(|e| e.to_string())?;
         if !a.json {
             out(&format!(
                 "recorded {} scans, {} odometry readings into {} ({} files; replay with `host-sim replay {}`)",
@@ -829,7 +842,12 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
         );
     }
     let choice = s.landmark_choice().map_err(|e| e.to_string())?;
-    let map = stored_map::build(&world, &choice).map_err(|e| e.to_string())?;
+    let map = if a.as_built {
+        stored_map::build_as_built(&world, &choice)
+    } else {
+        stored_map::build(&world, &choice)
+    }
+    .map_err(|e| e.to_string())?;
     match a.format {
         MapFormat::Json => {
             let text = map_export::to_json(&map).to_pretty();

@@ -85,6 +85,103 @@ pub fn design_placements(world: &World, choice: &LandmarkChoice) -> Vec<Landmark
         .collect()
 }
 
+/// Vertex spacing of an as-built map's walls, metres: the roughness below it is texture
+/// the matcher's roughness model absorbs, and a 1 km tunnel's two walls (2 000 segments)
+/// plus its landmarks stay within the firmware's [`TunnelMap`] (4 096 segments).
+pub const AS_BUILT_STATION_M: f64 = 1.0;
+
+/// The true walls as an as-built map holds them ([`World::wall_polyline_smoothed`]).
+pub fn as_built_walls(world: &World) -> (Polyline, Polyline) {
+    (
+        world.wall_polyline_smoothed(WallSide::Left, AS_BUILT_STATION_M),
+        world.wall_polyline_smoothed(WallSide::Right, AS_BUILT_STATION_M),
+    )
+}
+
+/// Where `p` sits against `poly`: `(arc length of its foot, signed distance)`, the
+/// distance positive to the left of the polyline's direction.
+pub fn project_onto(poly: &[(f64, f64)], p: (f64, f64)) -> (f64, f64) {
+    let s = arc_length_of(poly, p);
+    let (foot, tangent) = point_at(poly, s);
+    let (dx, dy) = (p.0 - foot.0, p.1 - foot.1);
+    (s, tangent.0 * dy - tangent.1 * dx)
+}
+
+/// The point at arc length `s_m` along `poly` (clamped to its ends) and the unit tangent
+/// there.
+pub fn point_at(poly: &[(f64, f64)], s_m: f64) -> ((f64, f64), (f64, f64)) {
+    let mut acc = 0.0;
+    let mut last = ((0.0, 0.0), (1.0, 0.0));
+    for w in poly.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = (b.0 - a.0).hypot(b.1 - a.1);
+        if len <= 0.0 {
+            continue;
+        }
+        let t = ((b.0 - a.0) / len, (b.1 - a.1) / len);
+        let u = ((s_m - acc) / len).clamp(0.0, 1.0);
+        last = ((a.0 + u * (b.0 - a.0), a.1 + u * (b.1 - a.1)), t);
+        if s_m <= acc + len {
+            return last;
+        }
+        acc += len;
+    }
+    last
+}
+
+/// The landmarks as installed, on the walls of an as-built map: each present landmark's
+/// true anchor (centre of its base) projected onto its wall polyline, the distance off it
+/// as the stand-off. Missing landmarks are left out (a survey cannot see them).
+pub fn as_built_placements(
+    world: &World,
+    choice: &LandmarkChoice,
+    walls: &(Polyline, Polyline),
+) -> Vec<LandmarkPlacement> {
+    let LandmarkChoice::Shape(shape) = choice else {
+        return Vec::new();
+    };
+    world
+        .placements()
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            let poly = world.landmark_polyline(i, true);
+            let (first, last) = (*poly.first()?, *poly.last()?);
+            let anchor = ((first.0 + last.0) / 2.0, (first.1 + last.1) / 2.0);
+            let (wall_poly, wall) = match p.wall {
+                WallSide::Left => (&walls.0, CoreWall::Left),
+                WallSide::Right => (&walls.1, CoreWall::Right),
+            };
+            let (s, left_of) = project_onto(wall_poly, anchor);
+            // Inward is to the right of the left wall's direction, to the left of the right's.
+            let standoff = match wall {
+                CoreWall::Left => -left_of,
+                CoreWall::Right => left_of,
+            };
+            let LandmarkShape { model, genome } = *shape;
+            Some(LandmarkPlacement {
+                offset_m: standoff as f32,
+                ..LandmarkPlacement::new(wall, s as f32, model, genome)
+            })
+        })
+        .collect()
+}
+
+/// The true as-built map of `world` (what a perfect survey would store): walls every
+/// [`AS_BUILT_STATION_M`], every present landmark where it was installed.
+pub fn build_as_built(world: &World, choice: &LandmarkChoice) -> Result<Box<TunnelMap>, MapError> {
+    let walls = as_built_walls(world);
+    let placements = as_built_placements(world, choice, &walls);
+    let mut map = Box::<TunnelMap>::default();
+    map.rebuild(
+        &to_points(&walls.0),
+        &to_points(&walls.1),
+        &placements,
+        MAP_CELL_M,
+    )?;
+    Ok(map)
+}
+
 /// Builds the stored map of `world`'s design into `map` (reused in place: it is large).
 pub fn build_into(
     map: &mut TunnelMap,
@@ -155,5 +252,29 @@ mod tests {
         back.load_from_bytes(&bytes).unwrap();
         assert_eq!(back.segments().len(), map.segments().len());
         assert_eq!(back.landmarks().len(), map.landmarks().len());
+    }
+
+    #[test]
+    fn the_as_built_map_holds_the_installed_landmarks_on_the_true_walls() {
+        let mut s = named("tunnel-1km").unwrap();
+        s.landmarks.install_sd_m = 0.03;
+        s.landmarks.install_standoff_sd_m = 0.005;
+        s.landmarks.missing_every = Some(7);
+        let world = s.build_world().unwrap();
+        let choice = s.landmark_choice().unwrap();
+        let map = build_as_built(&world, &choice).unwrap();
+        let present: Vec<usize> = (0..world.placements().len())
+            .filter(|&i| !world.landmark_polyline(i, true).is_empty())
+            .collect();
+        assert_eq!(map.landmarks().len(), present.len());
+        // Each stored landmark's base starts where the installed one does, to the wall's
+        // smoothing (the true base follows the centre line's heading, the map's the wall's).
+        for (lm, &i) in map.landmarks().iter().zip(&present) {
+            let built = world.landmark_polyline(i, true);
+            let a = map.segments()[usize::from(lm.first_segment)].segment.a;
+            let d = (f64::from(a.x_m) - built[0].0).hypot(f64::from(a.y_m) - built[0].1);
+            assert!(d < 0.006, "landmark {i}: {d} m apart");
+        }
+        assert!(to_file_bytes(&map).unwrap().len() < 64 * 1024);
     }
 }

@@ -72,7 +72,7 @@ fn recorded(
     let log = run_scenario(s, EstimatorChoice::Localizer, &options).unwrap();
     let (_, map_file) = record::scenario_map(s).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let written = record::write_recording(dir.path(), &log, &map_file).unwrap();
+    let written = record::write_recording(dir.path(), &log, &map_file, None).unwrap();
     (log, dir, written)
 }
 

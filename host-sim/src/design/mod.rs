@@ -119,11 +119,10 @@ fn layout(req: &DesignRequest, length_m: f64) -> Result<Vec<Placement>, String> 
             &mut rng,
         )
         .map_err(|e| format!("{wall:?} wall: {e}"))?;
-        out.extend(s.into_iter().map(|s_m| Placement {
-            wall,
-            s_m,
-            condition: Condition::Intact,
-        }));
+        out.extend(
+            s.into_iter()
+                .map(|s_m| Placement::at_mark(wall, s_m, Condition::Intact)),
+        );
     }
     Ok(out)
 }

@@ -9,6 +9,7 @@
 //! | `ground_truth.csv` | `t_s, x_m, y_m, theta_rad, distance_m, chainage_m`: the start (t = 0), then one row per scan ([`truth_csv`]) |
 //! | `initial_pose.csv` | the pose the localiser starts from and its σ ([`initial_pose`]) |
 //! | `map.postcard` | the stored map, loc-core's map file (what `export-map` writes) |
+//! | `as_built.postcard` | simulation only, like the ground truth: the true as-built map (walls every metre, landmarks where installed; `export-map --as-built`), to score a survey against |
 //! | `scenario.toml` | the scenario: sensor mounting, localiser settings, the tunnel (for the metrics) |
 //! | `README.txt` | this table for the person who opens the directory |
 //!
@@ -45,6 +46,8 @@ pub mod files {
     pub const INITIAL_POSE: &str = "initial_pose.csv";
     /// loc-core's map file.
     pub const MAP: &str = "map.postcard";
+    /// The true as-built map (simulation only).
+    pub const AS_BUILT_MAP: &str = "as_built.postcard";
     /// The scenario.
     pub const SCENARIO: &str = "scenario.toml";
     /// The description.
@@ -120,12 +123,13 @@ fn write_with(
 }
 
 /// Writes the recording of a run into `dir` (created if needed): the run must have kept its
-/// scans and odometry; `map_file` is loc-core's map file of the run's stored map. Returns the
-/// paths written.
+/// scans and odometry; `map_file` is loc-core's map file of the run's stored map,
+/// `as_built_file` the true as-built map's (simulated drives). Returns the paths written.
 pub fn write_recording(
     dir: &Path,
     log: &RunLog,
     map_file: &[u8],
+    as_built_file: Option<&[u8]>,
 ) -> Result<Vec<PathBuf>, RecordError> {
     if log.scans.len() != log.samples.len() || (log.odometry.is_empty() && !log.samples.is_empty())
     {
@@ -173,6 +177,11 @@ pub fn write_recording(
     let p = path(files::MAP);
     std::fs::write(&p, map_file).map_err(io_err(&p))?;
     written.push(p);
+    if let Some(bytes) = as_built_file {
+        let p = path(files::AS_BUILT_MAP);
+        std::fs::write(&p, bytes).map_err(io_err(&p))?;
+        written.push(p);
+    }
     // With a copy of a CSV centre line: everything a replay needs is in the recording.
     let p = path(files::SCENARIO);
     written.extend(
@@ -193,4 +202,13 @@ pub fn scenario_map(scenario: &Scenario) -> Result<(Box<TunnelMap>, Vec<u8>), Re
     let map = stored_map::build(&world, &choice).map_err(RecordError::Map)?;
     let bytes = stored_map::to_file_bytes(&map).map_err(RecordError::Map)?;
     Ok((map, bytes))
+}
+
+/// The true as-built map of a scenario's world ([`stored_map::build_as_built`]) as map file
+/// bytes.
+pub fn scenario_as_built_map(scenario: &Scenario) -> Result<Vec<u8>, RecordError> {
+    let world = scenario.build_world().map_err(RecordError::Scenario)?;
+    let choice = scenario.landmark_choice().map_err(RecordError::Scenario)?;
+    let map = stored_map::build_as_built(&world, &choice).map_err(RecordError::Map)?;
+    stored_map::to_file_bytes(&map).map_err(RecordError::Map)
 }

@@ -126,6 +126,19 @@ pub struct LandmarkConfig {
     /// Remaining width fraction of partly missing landmarks.
     #[serde(default = "default_keep")]
     pub keep_fraction: f64,
+    /// Installation error: σ of each landmark's mounting position along its wall against
+    /// its design mark, metres (0: installed exactly on the marks). The design map keeps
+    /// the marks; the true tunnel has the landmarks where they were mounted.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub install_sd_m: f64,
+    /// Installation error: σ of each landmark's stand-off from the wall surface, metres
+    /// (folded to be non-negative).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub install_standoff_sd_m: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn default_model() -> String {
@@ -161,6 +174,8 @@ impl Default for LandmarkConfig {
             damage: default_damage_kind(),
             bend_deg: default_bend(),
             keep_fraction: default_keep(),
+            install_sd_m: 0.0,
+            install_standoff_sd_m: 0.0,
         }
     }
 }
@@ -550,6 +565,16 @@ impl Scenario {
             "must lie in [0, 1]",
         )?;
         check(
+            l.install_sd_m.is_finite() && (0.0..=0.5).contains(&l.install_sd_m),
+            "landmarks.install_sd_m",
+            "must lie in [0, 0.5] m",
+        )?;
+        check(
+            l.install_standoff_sd_m.is_finite() && (0.0..=0.2).contains(&l.install_standoff_sd_m),
+            "landmarks.install_standoff_sd_m",
+            "must lie in [0, 0.2] m",
+        )?;
+        check(
             l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0,
             "landmarks.bend_deg",
             "must lie in [-90, 90]",
@@ -820,6 +845,13 @@ impl Scenario {
         } else {
             World::build(&tunnel, &[base], profile, &mut rng)
         };
+        let mut world = world;
+        // A stream of its own: worlds without installation errors stay as they were.
+        world.install_with_errors(
+            l.install_sd_m,
+            l.install_standoff_sd_m,
+            &mut Pcg32::new(self.seed, 0x1257),
+        );
         Ok(world)
     }
 }

@@ -22,6 +22,8 @@ pub struct Overrides {
     pub missing_fraction: Option<f64>,
     /// Fraction of landmarks damaged.
     pub damage_fraction: Option<f64>,
+    /// σ of the landmarks' installation error along the wall, metres.
+    pub install_sd_m: Option<f64>,
     /// Length of the drive from its start, metres.
     pub drive_length_m: Option<f64>,
     /// Cruise speed, m/s.
@@ -59,6 +61,9 @@ impl Overrides {
         }
         if let Some(f) = self.damage_fraction {
             s.landmarks.damage_fraction = f;
+        }
+        if let Some(sd) = self.install_sd_m {
+            s.landmarks.install_sd_m = sd;
         }
         if let Some(len) = self.drive_length_m {
             if !(len.is_finite() && len > 0.0) {

@@ -101,6 +101,42 @@ pub struct Placement {
     pub s_m: f64,
     /// Its state in the true tunnel.
     pub condition: Condition,
+    /// Where it was mounted against its design mark: `(along_m, standoff_m)`, along the
+    /// wall (direction of increasing chainage) and off the wall surface into the tunnel
+    /// (brackets, shotcrete lumps), metres. `(0, 0)` unless the installation error is drawn
+    /// ([`draw_installation_errors`]); the design map never sees it.
+    pub installed_off_m: (f64, f64),
+}
+
+impl Placement {
+    /// A landmark at its design mark, installed exactly there.
+    pub fn at_mark(wall: WallSide, s_m: f64, condition: Condition) -> Self {
+        Self {
+            wall,
+            s_m,
+            condition,
+            installed_off_m: (0.0, 0.0),
+        }
+    }
+}
+
+/// Draws each landmark's installation error: Gaussian, `along_sd_m` along the wall and
+/// `standoff_sd_m` off it (the stand-off folded to be non-negative: a landmark cannot sit
+/// behind the wall surface). Both σ 0 leaves the layout untouched and draws nothing.
+pub fn draw_installation_errors(
+    placements: &mut [Placement],
+    along_sd_m: f64,
+    standoff_sd_m: f64,
+    rng: &mut Pcg32,
+) {
+    if along_sd_m <= 0.0 && standoff_sd_m <= 0.0 {
+        return;
+    }
+    for p in placements {
+        let along = along_sd_m * f64::from(rng.gaussian());
+        let standoff = (standoff_sd_m * f64::from(rng.gaussian())).abs();
+        p.installed_off_m = (along, standoff);
+    }
 }
 
 /// Parameters of a layout.
@@ -147,11 +183,7 @@ pub fn place_landmarks(spec: &LayoutSpec, rng: &mut Pcg32) -> Vec<Placement> {
                     _ => Condition::Intact,
                 }
             };
-            out.push(Placement {
-                wall,
-                s_m: s,
-                condition,
-            });
+            out.push(Placement::at_mark(wall, s, condition));
             // Spacing never below a small positive gap, whatever D is.
             let lo = (spec.spacing_m - SPACING_JITTER_M).max(0.05);
             let hi = (spec.spacing_m + SPACING_JITTER_M).max(lo);

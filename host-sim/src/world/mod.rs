@@ -130,6 +130,13 @@ impl World {
         world
     }
 
+    /// Mounts every landmark off its design mark ([`layout::draw_installation_errors`]):
+    /// the true geometry (and its ray-casting index) moves, the design does not.
+    pub fn install_with_errors(&mut self, along_sd_m: f64, standoff_sd_m: f64, rng: &mut Pcg32) {
+        layout::draw_installation_errors(&mut self.placements, along_sd_m, standoff_sd_m, rng);
+        self.grid = SegmentGrid::new(self.true_segments(), GRID_CELL_M);
+    }
+
     /// The centre line.
     pub fn centerline(&self) -> &CenterLine {
         &self.centerline
@@ -185,6 +192,29 @@ impl World {
         }
     }
 
+    /// The true wall as a map can hold it: a vertex every `station_m` along the centre line
+    /// (and at both ends), each the mean of the rough wall over the `station_m` around it
+    /// (what a lidar survey resolves; the roughness below it stays as texture).
+    pub fn wall_polyline_smoothed(&self, side: WallSide, station_m: f64) -> Vec<(f64, f64)> {
+        let len = self.centerline.length_m();
+        let n = (len / station_m).ceil().max(1.0) as usize;
+        let per_station = (station_m / ROUGHNESS_STEP_M).round().max(1.0) as usize;
+        (0..=n)
+            .map(|i| {
+                let s = (i as f64 * station_m).min(len);
+                let lateral = (0..per_station)
+                    .map(|k| {
+                        let u = (k as f64 + 0.5) / per_station as f64 - 0.5;
+                        let at = (s + u * station_m).clamp(0.0, len);
+                        self.wall_lateral_m(side, true, at)
+                    })
+                    .sum::<f64>()
+                    / per_station as f64;
+                self.centerline.offset_point(s, lateral)
+            })
+            .collect()
+    }
+
     /// A landmark's polyline in world coordinates. `as_built = true`: the true landmark
     /// (mounted on the rough wall, damage applied; empty when missing); `false`: as
     /// designed, on the ideal wall.
@@ -201,8 +231,16 @@ impl World {
         } else {
             self.profile.clone()
         };
-        let (cx, cy, h) = self.centerline.pose_at(p.s_m);
-        let lat = self.wall_lateral_m(p.side(), as_built, p.s_m);
+        let (along, standoff) = if as_built {
+            p.installed_off_m
+        } else {
+            (0.0, 0.0)
+        };
+        let s = p.s_m + along;
+        let (cx, cy, h) = self.centerline.pose_at(s);
+        // Stand-off is into the tunnel: towards the centre line from either wall.
+        let lat = self.wall_lateral_m(p.side(), as_built, s);
+        let lat = lat - standoff * lat.signum();
         let (ax, ay) = (cx - lat * h.sin(), cy + lat * h.cos());
         let t = (h.cos(), h.sin());
         // Unit vector from the wall into the tunnel.
@@ -381,6 +419,34 @@ mod tests {
             .true_segments()
             .iter()
             .all(|s| s.surface != Surface::Landmark { id: missing as u32 }));
+    }
+
+    #[test]
+    fn installation_errors_move_the_true_landmarks_only() {
+        let mut w = world(0.0, 0.0, Omission::None);
+        let designed: Vec<_> = (0..w.placements().len())
+            .map(|i| w.landmark_polyline(i, false))
+            .collect();
+        w.install_with_errors(0.03, 0.01, &mut Pcg32::seeded(9));
+        let mut moved = 0;
+        for (i, d) in designed.iter().enumerate() {
+            assert_eq!(&w.landmark_polyline(i, false), d, "design of {i} moved");
+            let (along, standoff) = w.placements()[i].installed_off_m;
+            assert!(standoff >= 0.0 && along.abs() < 0.2);
+            let built = w.landmark_polyline(i, true);
+            // Straight smooth tunnel: the base moves along x by `along`, the tip inwards.
+            assert!((built[0].0 - d[0].0 - along).abs() < 1e-9, "{i}");
+            assert!(((built[1].1 - d[1].1).abs() - standoff).abs() < 1e-9, "{i}");
+            moved += usize::from(along.abs() > 1e-4);
+        }
+        assert!(moved > designed.len() / 2);
+        // The ray-casting index follows: straight up to the first (left) landmark's tip.
+        let p = w.landmark_polyline(0, true);
+        let hit = w
+            .grid()
+            .cast((p[1].0, 0.0), std::f64::consts::FRAC_PI_2, 80.0)
+            .unwrap();
+        assert!((hit.range_m - p[1].1).abs() < 1e-6, "{hit:?} {p:?}");
     }
 
     #[test]
