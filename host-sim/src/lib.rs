@@ -34,6 +34,7 @@ pub mod scenario;
 pub mod session;
 pub mod status;
 pub mod stored_map;
+pub mod survey;
 pub mod vehicle;
 pub mod visuals;
 pub mod world;

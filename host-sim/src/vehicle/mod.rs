@@ -37,11 +37,69 @@ impl SimPose {
             theta_rad: self.theta_rad + dth,
         }
     }
+
+    /// A pose from its parts.
+    pub const fn new(x_m: f64, y_m: f64, theta_rad: f64) -> Self {
+        Self {
+            x_m,
+            y_m,
+            theta_rad,
+        }
+    }
+
+    /// `self ∘ other`: `other` (a pose in this pose's frame) in this pose's parent frame.
+    pub fn compose(self, other: SimPose) -> SimPose {
+        let (x_m, y_m) = self.apply((other.x_m, other.y_m));
+        SimPose::new(x_m, y_m, self.theta_rad + other.theta_rad)
+    }
+
+    /// The inverse transform.
+    pub fn inverse(self) -> SimPose {
+        let (s, c) = self.theta_rad.sin_cos();
+        SimPose::new(
+            -(c * self.x_m + s * self.y_m),
+            s * self.x_m - c * self.y_m,
+            -self.theta_rad,
+        )
+    }
+
+    /// `other` in this pose's frame: `self⁻¹ ∘ other`.
+    pub fn between(self, other: SimPose) -> SimPose {
+        self.inverse().compose(other)
+    }
+
+    /// A point of this pose's frame in its parent frame.
+    pub fn apply(self, p: (f64, f64)) -> (f64, f64) {
+        let (s, c) = self.theta_rad.sin_cos();
+        (self.x_m + c * p.0 - s * p.1, self.y_m + s * p.0 + c * p.1)
+    }
+
+    /// A point of the parent frame in this pose's frame.
+    pub fn apply_inverse(self, p: (f64, f64)) -> (f64, f64) {
+        let (s, c) = self.theta_rad.sin_cos();
+        let (dx, dy) = (p.0 - self.x_m, p.1 - self.y_m);
+        (c * dx + s * dy, -s * dx + c * dy)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn compose_inverse_and_between_agree() {
+        let a = SimPose::new(3.0, -1.0, 0.7);
+        let b = SimPose::new(-2.0, 5.0, -2.1);
+        let ab = a.between(b);
+        let back = a.compose(ab);
+        assert!((back.x_m - b.x_m).abs() < 1e-12 && (back.y_m - b.y_m).abs() < 1e-12);
+        assert!((back.theta_rad - b.theta_rad).abs() < 1e-12);
+        let p = (0.3, 0.9);
+        let q = a.apply_inverse(a.apply(p));
+        assert!((q.0 - p.0).abs() < 1e-12 && (q.1 - p.1).abs() < 1e-12);
+        let id = a.compose(a.inverse());
+        assert!(id.x_m.abs() < 1e-12 && id.y_m.abs() < 1e-12 && id.theta_rad.abs() < 1e-12);
+    }
 
     #[test]
     fn integration_along_a_circle_closes() {
