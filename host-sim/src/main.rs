@@ -11,6 +11,9 @@
 //!   `host-sim compare-objectives`: GA/CMA-ES × simulation/Fisher.
 //! - `host-sim design --model M --out DIR`: schedule, cutting template, bill of materials,
 //!   map file and predicted accuracy of a layout.
+//! - `host-sim survey DIR --out OUT`: the as-built map from one recorded drive.
+
+mod survey_cli;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -76,6 +79,10 @@ enum Command {
     /// What an engineer takes underground: installation schedule, 1:1 cutting template,
     /// bill of materials, the map file and the predicted accuracy along the tunnel.
     Design(DesignArgs),
+    /// The stored map as built, from one recorded drive: walls and every landmark's pose
+    /// estimated jointly with the trajectory, each landmark's uncertainty, what could not be
+    /// surveyed (map, survey.json, landmarks.csv, report.txt and plots in --out).
+    Survey(survey_cli::SurveyArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -1289,6 +1296,7 @@ fn main() -> ExitCode {
         Command::Table2(a) => cmd_table2(a),
         Command::CompareObjectives(a) => cmd_compare(a),
         Command::Design(a) => cmd_design(a),
+        Command::Survey(a) => survey_cli::cmd_survey(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

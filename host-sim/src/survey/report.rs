@@ -1,0 +1,235 @@
+//! What a survey tells its user: a text report, `survey.json`, and `landmarks.csv` (one row
+//! per landmark of the prior map with its surveyed pose and uncertainty).
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::score::LandmarkScore;
+use super::{Gauge, LandmarkState, Stretch, Survey, SurveyedLandmark, Timings, Unexplained};
+
+/// The surveyed map and the prior against the truth (simulated drives).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AgainstTruth {
+    /// The prior map's (design's) landmarks against the truth: the installation error.
+    pub prior: LandmarkScore,
+    /// The surveyed map's.
+    pub surveyed: LandmarkScore,
+}
+
+/// `survey.json`.
+#[derive(Debug, Clone, Serialize)]
+pub struct SurveyJson<'a> {
+    /// What fixes the map.
+    pub gauge: Gauge,
+    /// Scans in the recording.
+    pub scans: usize,
+    /// Keyframes used.
+    pub keyframes: usize,
+    /// Landmarks of the prior map.
+    pub prior_landmarks: usize,
+    /// Landmarks surveyed (in the map).
+    pub surveyed_landmarks: usize,
+    /// Steps whose across-tunnel offset and heading came from the walls.
+    pub wall_steps: usize,
+    /// Steps on the odometry alone.
+    pub odometry_steps: usize,
+    /// Median 1σ along the wall of the surveyed landmarks, metres.
+    pub median_sd_along_m: f64,
+    /// Largest 1σ along the wall, metres.
+    pub max_sd_along_m: f64,
+    /// Stretches whose along-tunnel extent rests on the odometry.
+    pub along_unobserved: &'a [Stretch],
+    /// Their 1σ from the odometry's scale uncertainty, metres.
+    pub along_unobserved_sd_m: f64,
+    /// Wall stretches interpolated: `(wall, from s m, to s m)`.
+    pub unsurveyed_walls: &'a [(&'static str, f64, f64)],
+    /// Landmark-like returns no prior landmark explains.
+    pub unexplained: &'a [Unexplained],
+    /// Against the truth, when given.
+    pub against_truth: Option<AgainstTruth>,
+    /// Time per stage, seconds.
+    pub timings: Timings,
+    /// Warnings.
+    pub warnings: &'a [String],
+    /// Every landmark of the prior map.
+    pub landmarks: &'a [SurveyedLandmark],
+}
+
+fn sd_stats(s: &Survey) -> (f64, f64) {
+    let mut v: Vec<f64> = s
+        .landmarks
+        .iter()
+        .filter(|l| l.state == LandmarkState::Surveyed)
+        .map(|l| l.sd_along_m)
+        .collect();
+    v.sort_unstable_by(f64::total_cmp);
+    (
+        v.get(v.len() / 2).copied().unwrap_or(0.0),
+        v.last().copied().unwrap_or(0.0),
+    )
+}
+
+/// The JSON view of a survey.
+pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
+    let (median, max) = sd_stats(s);
+    SurveyJson {
+        gauge: s.gauge,
+        scans: s.scans,
+        keyframes: s.keyframes,
+        prior_landmarks: s.landmarks.len(),
+        surveyed_landmarks: s.map.landmarks().len(),
+        wall_steps: s.wall_steps,
+        odometry_steps: s.odometry_steps,
+        median_sd_along_m: median,
+        max_sd_along_m: max,
+        along_unobserved: &s.along_unobserved,
+        along_unobserved_sd_m: s.along_unobserved_sd_m,
+        unsurveyed_walls: &s.unsurveyed_walls,
+        unexplained: &s.unexplained,
+        against_truth: truth,
+        timings: s.timings,
+        warnings: &s.warnings,
+        landmarks: &s.landmarks,
+    }
+}
+
+/// `landmarks.csv`.
+pub fn landmarks_csv(s: &Survey) -> String {
+    let mut out = String::from(
+        "prior_index,map_index,wall,state,x_m,y_m,s_m,offset_m,sd_along_m,sd_across_m,sd_rotation_rad,fits,failed_fits,from_prior_along_m,from_prior_across_m\n",
+    );
+    for l in &s.landmarks {
+        let state = match l.state {
+            LandmarkState::Surveyed => "surveyed",
+            LandmarkState::NotSeen => "not-seen",
+        };
+        let _ = writeln!(
+            out,
+            "{},{},{},{state},{:.4},{:.4},{:.4},{:.4},{:.5},{:.5},{:.5},{},{},{:.4},{:.4}",
+            l.prior_index,
+            l.map_index.map_or(String::new(), |i| i.to_string()),
+            l.wall,
+            l.x_m,
+            l.y_m,
+            l.s_m,
+            l.offset_m,
+            l.sd_along_m,
+            l.sd_across_m,
+            l.sd_rotation_rad,
+            l.fits,
+            l.failed_fits,
+            l.from_prior_m.0,
+            l.from_prior_m.1
+        );
+    }
+    out
+}
+
+fn mm(m: f64) -> String {
+    format!("{:.1} mm", m * 1e3)
+}
+
+/// The text report.
+pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
+    let mut o = String::new();
+    let (median, max) = sd_stats(s);
+    let gauge = match s.gauge {
+        Gauge::Design => "the design's marks (installation tolerance) and any anchors",
+        Gauge::Anchors => "the surveyed anchors",
+        Gauge::FirstLandmark => "the first landmark (the map is relative to it)",
+        Gauge::FirstPose => "the first pose (no landmark surveyed)",
+    };
+    let _ = writeln!(
+        o,
+        "survey of {} scans ({} keyframes): {} of {} landmarks surveyed; map tied to {gauge}",
+        s.scans,
+        s.keyframes,
+        s.map.landmarks().len(),
+        s.landmarks.len()
+    );
+    let _ = writeln!(
+        o,
+        "landmark uncertainty along the wall (1σ, marginal): median {}, worst {}",
+        mm(median),
+        mm(max)
+    );
+    let _ = writeln!(
+        o,
+        "keyframe steps: {} across/heading from the walls, {} on the odometry alone",
+        s.wall_steps, s.odometry_steps
+    );
+    if let Some(t) = truth {
+        let _ = writeln!(o, "\nlandmarks against the true as-built map:");
+        let _ = writeln!(
+            o,
+            "  {:<10} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
+            "map", "paired", "RMS", "along", "across", "rel. first", "max"
+        );
+        for (name, sc) in [("design", &t.prior), ("surveyed", &t.surveyed)] {
+            let _ = writeln!(
+                o,
+                "  {:<10} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
+                name,
+                sc.paired,
+                mm(sc.rms_m),
+                mm(sc.rms_along_m),
+                mm(sc.rms_across_m),
+                mm(sc.rms_relative_m),
+                mm(sc.max_m)
+            );
+        }
+    }
+    let not_seen: Vec<&SurveyedLandmark> = s
+        .landmarks
+        .iter()
+        .filter(|l| l.state == LandmarkState::NotSeen)
+        .collect();
+    if !not_seen.is_empty() {
+        let _ = writeln!(
+            o,
+            "\nlandmarks of the design not surveyed (left out of the map):"
+        );
+        for l in not_seen {
+            let _ = writeln!(
+                o,
+                "  #{:<4} {:<5} wall, s {:8.2} m: fitted in {} scans, not fitted in {}",
+                l.prior_index, l.wall, l.s_m, l.fits, l.failed_fits
+            );
+        }
+    }
+    if !s.unexplained.is_empty() {
+        let _ = writeln!(o, "\nlandmark-like returns no design landmark explains:");
+        for u in &s.unexplained {
+            let _ = writeln!(
+                o,
+                "  at ({:.2}, {:.2}) m, seen from {} keyframes",
+                u.x_m, u.y_m, u.keyframes
+            );
+        }
+    }
+    if !s.along_unobserved.is_empty() {
+        let _ = writeln!(
+            o,
+            "\nstretches without a landmark (along-tunnel extent from the odometry alone, ±{:.2} m in all):",
+            s.along_unobserved_sd_m
+        );
+        for st in &s.along_unobserved {
+            let _ = writeln!(
+                o,
+                "  {:8.1} – {:8.1} m driven, from ({:.1}, {:.1})",
+                st.from_m, st.to_m, st.at.0, st.at.1
+            );
+        }
+    }
+    for w in &s.warnings {
+        let _ = writeln!(o, "\nwarning: {w}");
+    }
+    let t = &s.timings;
+    let _ = writeln!(
+        o,
+        "\ntime: front end {:.1} s, landmark fits {:.1} s, joint solve {:.1} s, walls and map {:.1} s",
+        t.front_end_s, t.observations_s, t.solve_s, t.map_s
+    );
+    o
+}

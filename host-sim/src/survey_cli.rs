@@ -1,0 +1,187 @@
+//! `host-sim survey DIR --out OUT`: the command line of [`host_sim::survey`].
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use host_sim::record::files;
+use host_sim::replay::ReplaySources;
+use host_sim::stored_map;
+use host_sim::survey::report::{self, AgainstTruth};
+use host_sim::survey::{self, score, Anchor, Stage, SurveyOptions};
+
+#[derive(Args)]
+pub struct SurveyArgs {
+    /// Recording directory (`host-sim run --record DIR`, or a vehicle's log with the same
+    /// file names: the scanner stream, odometry.csv, scenario.toml and the design map).
+    pub dir: PathBuf,
+    /// Output directory: survey.postcard (the map), survey.json, landmarks.csv, report.txt.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The prior map (the design) instead of DIR/map.postcard.
+    #[arg(long)]
+    pub design: Option<PathBuf>,
+    /// Scanner recording instead of DIR/scanner.colab.bin (raw CoLa, pcapng, pcap, .pcapng.json).
+    #[arg(long)]
+    pub scanner: Option<PathBuf>,
+    /// Scan times CSV instead of DIR/scanner.colab.times.csv.
+    #[arg(long)]
+    pub scanner_times: Option<PathBuf>,
+    /// Odometry CSV instead of DIR/odometry.csv.
+    #[arg(long)]
+    pub odometry: Option<PathBuf>,
+    /// Scenario TOML instead of DIR/scenario.toml (sensor mounting, odometry noise).
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+    /// Score the landmarks against this true as-built map (default: DIR/as_built.postcard
+    /// when the recording is simulated).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Installation tolerance of the landmarks against the design's marks, 1σ along the
+    /// wall in metres (half of it across): the design's pull on the survey.
+    #[arg(long, default_value_t = 0.1)]
+    pub tolerance: f64,
+    /// Use the design only to pair scans with landmarks: the map is tied to the anchors, or
+    /// relative to the first landmark.
+    #[arg(long)]
+    pub no_design_prior: bool,
+    /// A surveyed landmark: `INDEX,X,Y[,SD]` (index in the design map, base centre in mine
+    /// coordinates in metres, 1σ default 0.005 m). Repeat for more.
+    #[arg(long, allow_hyphen_values = true)]
+    pub anchor: Vec<String>,
+    /// Odometry distance between keyframes, metres.
+    #[arg(long, default_value_t = 0.25)]
+    pub keyframe_spacing: f64,
+    /// Fit landmarks within this range of the vehicle, metres.
+    #[arg(long, default_value_t = 20.0)]
+    pub range: f64,
+    /// Print survey.json instead of the report.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress lines.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn parse_anchor(text: &str) -> Result<Anchor, String> {
+    let v: Vec<&str> = text.split(',').map(str::trim).collect();
+    let bad = || format!("--anchor `{text}`: give INDEX,X,Y[,SD] (metres)");
+    if !(3..=4).contains(&v.len()) {
+        return Err(bad());
+    }
+    let num = |s: &str| s.parse::<f64>().ok().filter(|x| x.is_finite());
+    let a = Anchor {
+        landmark: v[0].parse().map_err(|_| bad())?,
+        x_m: num(v[1]).ok_or_else(bad)?,
+        y_m: num(v[2]).ok_or_else(bad)?,
+        sd_m: v.get(3).map_or(Some(0.005), |s| num(s)).ok_or_else(bad)?,
+    };
+    if a.sd_m <= 0.0 {
+        return Err(format!("--anchor `{text}`: the 1σ must be positive"));
+    }
+    Ok(a)
+}
+
+fn sources(a: &SurveyArgs) -> Result<ReplaySources, String> {
+    let mut src = ReplaySources::in_dir(&a.dir).map_err(|e| e.to_string())?;
+    let set = |slot: &mut PathBuf, v: &Option<PathBuf>| {
+        if let Some(p) = v {
+            *slot = p.clone();
+        }
+    };
+    set(&mut src.scanner, &a.scanner);
+    set(&mut src.odometry, &a.odometry);
+    set(&mut src.map, &a.design);
+    set(&mut src.scenario, &a.scenario);
+    if a.scanner_times.is_some() || a.scanner.is_some() {
+        src.scanner_times = a.scanner_times.clone();
+    }
+    Ok(src)
+}
+
+fn read_map(path: &Path) -> Result<Box<loc_core::map::TunnelMap>, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let mut map = Box::<loc_core::map::TunnelMap>::default();
+    map.load_from_bytes(&bytes)
+        .map_err(|e| format!("{} is not a loc-core map file: {e}", path.display()))?;
+    Ok(map)
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, String> {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+    Ok(p)
+}
+
+/// Runs `host-sim survey`.
+pub fn cmd_survey(a: &SurveyArgs) -> Result<(), String> {
+    if !(a.tolerance.is_finite() && a.tolerance > 0.0) {
+        return Err(format!(
+            "--tolerance {}: give a positive number of metres",
+            a.tolerance
+        ));
+    }
+    if !(a.keyframe_spacing.is_finite() && a.keyframe_spacing > 0.0) {
+        return Err("--keyframe-spacing: give a positive number of metres".into());
+    }
+    let src = sources(a)?;
+    let options = SurveyOptions {
+        keyframe_spacing_m: a.keyframe_spacing,
+        landmark_range_m: a.range,
+        design_tolerance_m: (!a.no_design_prior).then_some(a.tolerance),
+        anchors: a
+            .anchor
+            .iter()
+            .map(|s| parse_anchor(s))
+            .collect::<Result<_, _>>()?,
+        ..SurveyOptions::default()
+    };
+    let truth_path = a
+        .truth
+        .clone()
+        .or_else(|| Some(a.dir.join(files::AS_BUILT_MAP)).filter(|p| p.is_file()));
+    let truth = truth_path.as_deref().map(read_map).transpose()?;
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
+    let quiet = a.quiet;
+    let last = std::cell::Cell::new((Stage::Map, -1i32));
+    let progress = |stage: Stage, f: f64| {
+        let pct = (f * 10.0).floor() as i32 * 10;
+        if !quiet && (last.get().0 != stage || last.get().1 != pct) {
+            eprintln!("survey: {} {pct:>3} %", stage.name());
+            last.set((stage, pct));
+        }
+    };
+    let s = survey::survey(&src, &options, &progress).map_err(|e| e.to_string())?;
+    let against = truth.as_ref().map(|t| AgainstTruth {
+        prior: score::score(&s.prior, t),
+        surveyed: score::score(&s.map, t),
+    });
+    let map_bytes = stored_map::to_file_bytes(&s.map).map_err(|e| e.to_string())?;
+    let mut written = vec![write(&a.out, "survey.postcard", &map_bytes)?];
+    let json =
+        serde_json::to_string_pretty(&report::json(&s, against)).map_err(|e| e.to_string())?;
+    written.push(write(&a.out, "survey.json", json.as_bytes())?);
+    written.push(write(
+        &a.out,
+        "landmarks.csv",
+        report::landmarks_csv(&s).as_bytes(),
+    )?);
+    let text = report::text(&s, against.as_ref());
+    written.push(write(&a.out, "report.txt", text.as_bytes())?);
+    written.extend(host_sim::survey::plot::write_plots(&a.out, &s)?);
+    if a.json {
+        println!("{json}");
+    } else {
+        println!("{text}");
+        for p in written {
+            println!("wrote {}", p.display());
+        }
+        println!(
+            "localise against it: host-sim replay {} --map {}",
+            a.dir.display(),
+            a.out.join("survey.postcard").display()
+        );
+    }
+    Ok(())
+}
