@@ -119,3 +119,23 @@ fn landmarks_missing_from_the_tunnel_are_reported_and_left_out() {
         "{j}"
     );
 }
+
+#[test]
+fn without_landmarks_the_along_tunnel_extent_is_reported_unobservable() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    record(&rec, &["--landmarks", "none", "--length", "60"]);
+    let j = survey(&rec, &out);
+    assert_eq!(j["gauge"], "first-pose");
+    let stretches = j["along_unobserved"].as_array().unwrap();
+    assert_eq!(stretches.len(), 1, "{j}");
+    // The whole drive, with the odometry's scale uncertainty (3 % of about 60 m).
+    assert!(stretches[0]["to_m"].as_f64().unwrap() > 55.0);
+    assert!(j["along_unobserved_sd_m"].as_f64().unwrap() > 1.0, "{j}");
+    assert!(j["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w.as_str().unwrap().contains("unobservable")));
+    assert!(out.join("survey.postcard").is_file());
+}

@@ -159,7 +159,7 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
         "keyframe steps: {} across/heading from the walls, {} on the odometry alone",
         s.wall_steps, s.odometry_steps
     );
-    if let Some(t) = truth {
+    if let Some(t) = truth.filter(|t| t.prior.paired + t.surveyed.paired > 0) {
         let _ = writeln!(o, "\nlandmarks against the true as-built map:");
         let _ = writeln!(
             o,
