@@ -44,18 +44,10 @@ pub fn to_json(map: &TunnelMap) -> MapJson {
         .iter()
         .enumerate()
         .map(|(id, lm)| {
-            let first = usize::from(lm.first_segment);
-            let segs = map
-                .segments()
-                .get(first..first + usize::from(lm.segment_count))
-                .unwrap_or(&[]);
-            let mut polyline: Vec<[f32; 2]> = segs
+            let polyline: Vec<[f32; 2]> = crate::stored_map::landmark_vertices(map, lm)
                 .iter()
-                .map(|s| [s.segment.a.x_m, s.segment.a.y_m])
+                .map(|p| [p.x_m, p.y_m])
                 .collect();
-            if let Some(last) = segs.last() {
-                polyline.push([last.segment.b.x_m, last.segment.b.y_m]);
-            }
             let shape = lm.placement.shape;
             MapJson::landmark(id, shape, lm.placement.wall, lm.placement.s_m, polyline)
         })

@@ -8,7 +8,7 @@
 
 use loc_core::geometry::Point2;
 use loc_core::landmark::LandmarkShape;
-use loc_core::map::{LandmarkPlacement, MapError, TunnelMap, WallSide as CoreWall};
+use loc_core::map::{LandmarkPlacement, MapError, MapLandmark, TunnelMap, WallSide as CoreWall};
 
 use crate::landmarks::LandmarkChoice;
 use crate::world::layout::WallSide;
@@ -98,13 +98,32 @@ pub fn as_built_walls(world: &World) -> (Polyline, Polyline) {
     )
 }
 
-/// Where `p` sits against `poly`: `(arc length of its foot, signed distance)`, the
-/// distance positive to the left of the polyline's direction.
-pub fn project_onto(poly: &[(f64, f64)], p: (f64, f64)) -> (f64, f64) {
+/// Where `p` sits against `wall`'s polyline `poly`, in a landmark placement's terms:
+/// `(arc length of its foot, stand-off)`, the stand-off positive into the tunnel (to the
+/// right of the left wall's direction, to the left of the right wall's).
+pub fn wall_position(poly: &[(f64, f64)], wall: CoreWall, p: (f64, f64)) -> (f64, f64) {
     let s = arc_length_of(poly, p);
     let (foot, tangent) = point_at(poly, s);
     let (dx, dy) = (p.0 - foot.0, p.1 - foot.1);
-    (s, tangent.0 * dy - tangent.1 * dx)
+    let left_of = tangent.0 * dy - tangent.1 * dx;
+    match wall {
+        CoreWall::Left => (s, -left_of),
+        CoreWall::Right => (s, left_of),
+    }
+}
+
+/// A stored landmark's polyline (its segments' vertices in order), world frame.
+pub fn landmark_vertices(map: &TunnelMap, lm: &MapLandmark) -> Vec<Point2> {
+    let first = usize::from(lm.first_segment);
+    let segs = map
+        .segments()
+        .get(first..first + usize::from(lm.segment_count))
+        .unwrap_or(&[]);
+    let mut out: Vec<Point2> = segs.iter().map(|s| s.segment.a).collect();
+    if let Some(last) = segs.last() {
+        out.push(last.segment.b);
+    }
+    out
 }
 
 /// The point at arc length `s_m` along `poly` (clamped to its ends) and the unit tangent
@@ -152,12 +171,7 @@ pub fn as_built_placements(
                 WallSide::Left => (&walls.0, CoreWall::Left),
                 WallSide::Right => (&walls.1, CoreWall::Right),
             };
-            let (s, left_of) = project_onto(wall_poly, anchor);
-            // Inward is to the right of the left wall's direction, to the left of the right's.
-            let standoff = match wall {
-                CoreWall::Left => -left_of,
-                CoreWall::Right => left_of,
-            };
+            let (s, standoff) = wall_position(wall_poly, wall, anchor);
             let LandmarkShape { model, genome } = *shape;
             Some(LandmarkPlacement {
                 offset_m: standoff as f32,

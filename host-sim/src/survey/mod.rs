@@ -40,7 +40,7 @@ use serde::Serialize;
 use crate::estimator::odometry_noise;
 use crate::replay::{ReplayError, ReplaySources};
 use crate::scenario::Scenario;
-use crate::stored_map::{project_onto, MAP_CELL_M};
+use crate::stored_map::{wall_position, MAP_CELL_M};
 use crate::vehicle::SimPose;
 use graph::{Prior, Problem, Relative};
 use landmark_fit::FitConfig;
@@ -467,11 +467,7 @@ pub fn survey(
             .collect()
     };
     let mut unsurveyed_walls = Vec::new();
-    let mut fused = Vec::new();
-    for (side, label) in [
-        (WallSide::Left, PointLabel::LeftWall),
-        (WallSide::Right, PointLabel::RightWall),
-    ] {
+    let mut fuse_wall = |side: WallSide, label: PointLabel| {
         let stations = Stations::along(&wall_poly(side), crate::stored_map::AS_BUILT_STATION_M);
         let wall = walls::fuse(kfs, &solution.keyframes, label, &stations, &footprint);
         unsurveyed_walls.extend(
@@ -479,9 +475,10 @@ pub fn survey(
                 .into_iter()
                 .map(|(a, b)| (wall_name(side), a, b)),
         );
-        fused.push(wall);
-    }
-    let [left, right]: [SurveyedWall; 2] = fused.try_into().map_err(|_| SurveyError::TooShort)?;
+        wall
+    };
+    let left = fuse_wall(WallSide::Left, PointLabel::LeftWall);
+    let right = fuse_wall(WallSide::Right, PointLabel::RightWall);
 
     // The landmarks on the surveyed walls.
     let mut landmarks = Vec::with_capacity(priors.len());
@@ -495,11 +492,7 @@ pub fn survey(
             Some(g) => (solution.landmarks[g], solution.landmark_covariance[g]),
             None => (p.frame, Matrix3::zeros()),
         };
-        let (s, left_of) = project_onto(wall, (pose.x_m, pose.y_m));
-        let standoff = match p.wall {
-            WallSide::Left => -left_of,
-            WallSide::Right => left_of,
-        };
+        let (s, standoff) = wall_position(wall, p.wall, (pose.x_m, pose.y_m));
         let from_prior = p.frame.between(pose);
         let map_index = graph_index[j].map(|_| {
             let shape = prior.landmarks()[j].placement.shape;

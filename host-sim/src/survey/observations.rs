@@ -34,16 +34,7 @@ pub fn prior_landmarks(map: &TunnelMap, config: &FitConfig) -> Vec<PriorLandmark
         .iter()
         .map(|lm| {
             let f = lm.frame;
-            let first = usize::from(lm.first_segment);
-            let segs = map
-                .segments()
-                .get(first..first + usize::from(lm.segment_count))
-                .unwrap_or(&[]);
-            let mut world: Vec<_> = segs.iter().map(|s| s.segment.a).collect();
-            if let Some(last) = segs.last() {
-                world.push(last.segment.b);
-            }
-            let profile: Vec<(f64, f64)> = world
+            let profile: Vec<(f64, f64)> = crate::stored_map::landmark_vertices(map, lm)
                 .iter()
                 .map(|&p| {
                     let q = f.to_landmark(p);
