@@ -39,7 +39,7 @@ pub struct SurveyArgs {
     pub truth: Option<PathBuf>,
     /// Installation tolerance of the landmarks against the design's marks, 1σ along the
     /// wall in metres (half of it across): the design's pull on the survey.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.05)]
     pub tolerance: f64,
     /// Use the design only to pair scans with landmarks: the map is tied to the anchors, or
     /// relative to the first landmark.

@@ -7,7 +7,7 @@
 //! landmarks with the map's; the map the survey writes comes from the scans.
 
 use loc_core::scan::Scan;
-use loc_core::strip::{strip_walls, Cubic, PointLabel};
+use loc_core::strip::{strip_walls, PointLabel};
 
 use crate::estimator::localizer_config;
 use crate::replay::scan_source::ScanStream;
@@ -36,10 +36,6 @@ pub struct Keyframe {
     pub points: Vec<(f64, f64)>,
     /// loc-core's label of each point.
     pub labels: Vec<PointLabel>,
-    /// The left wall the stripper fitted, vehicle frame (`y = f(x)`).
-    pub left: Option<Cubic>,
-    /// The right wall.
-    pub right: Option<Cubic>,
 }
 
 /// The front end's result.
@@ -108,7 +104,7 @@ pub fn run(
             continue;
         }
         let points = scan.points();
-        let summary = strip_walls(points, &config.strip, &mut labels);
+        strip_walls(points, &config.strip, &mut labels);
         keyframes.push(Keyframe {
             scan_index: index - 1,
             t_s: step.t_s,
@@ -123,8 +119,6 @@ pub fn run(
                 .map(|p| (f64::from(p.vehicle.x_m), f64::from(p.vehicle.y_m)))
                 .collect(),
             labels: labels.iter().take(points.len()).copied().collect(),
-            left: summary.left.map(|w| w.cubic),
-            right: summary.right.map(|w| w.cubic),
         });
     }
     progress(1.0);

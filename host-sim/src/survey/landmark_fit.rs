@@ -23,6 +23,8 @@ pub struct FitModel {
     /// Half the landmark's width plus the wall run, metres: points farther along are not
     /// the landmark's.
     reach_along_m: f64,
+    /// Half the landmark's width, metres.
+    half_width_m: f64,
     /// Deepest the profile reaches into the tunnel, metres.
     height_m: f64,
     /// Which way the tunnel is: +1 to the frame's left (right wall), −1 to its right.
@@ -36,7 +38,10 @@ pub struct FitConfig {
     pub range_noise_m: f64,
     /// Extra 1σ of the wall runs (their roughness is not the landmark's), metres.
     pub wall_sigma_m: f64,
-    /// Wall included either side of the landmark, metres.
+    /// Wall included either side of the landmark, metres. A metre, not a few centimetres:
+    /// far off, at grazing incidence, the wall beside the landmark is what fixes its base
+    /// and direction (per-fit error at 8–10 m: 8 mm along and 4 mm across with 1 m, 10–12
+    /// and 9–11 mm with 0.3 m, and fits beyond 12 m fail; `tunnel-1km`, P1).
     pub wall_run_m: f64,
     /// Points farther than this from the model after the fit are dropped and the fit
     /// repeated, metres.
@@ -58,7 +63,7 @@ impl Default for FitConfig {
         Self {
             range_noise_m: 0.01,
             wall_sigma_m: 0.01,
-            wall_run_m: 0.3,
+            wall_run_m: 1.0,
             outlier_m: 0.04,
             max_shift_m: 0.15,
             max_turn_rad: 0.08,
@@ -99,6 +104,7 @@ impl FitModel {
         Self {
             vertices,
             reach_along_m: u0.abs().max(u1.abs()) + wall_run_m,
+            half_width_m: u0.abs().max(u1.abs()),
             height_m,
             inward_sign: sign,
         }
@@ -109,6 +115,13 @@ impl FitModel {
     pub fn covers(&self, p: (f64, f64)) -> bool {
         let v = p.1 * self.inward_sign;
         p.0.abs() <= self.reach_along_m && v >= -0.1 && v <= self.height_m + 0.1
+    }
+
+    /// Whether a point given in the landmark frame lies on the landmark's footprint (its
+    /// width, 10 cm behind the wall to 10 cm past the tip): not wall.
+    pub fn covers_landmark(&self, p: (f64, f64)) -> bool {
+        let v = p.1 * self.inward_sign;
+        p.0.abs() <= self.half_width_m && v >= -0.1 && v <= self.height_m + 0.1
     }
 
     /// The nearest point of the model to `p` and whether it lies on the wall runs.

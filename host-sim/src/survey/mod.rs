@@ -24,6 +24,7 @@ pub mod landmark_fit;
 pub mod observations;
 pub mod plot;
 pub mod report;
+pub mod scan_steps;
 pub mod score;
 pub mod steps;
 pub mod walls;
@@ -37,14 +38,13 @@ use loc_core::strip::PointLabel;
 use nalgebra::Matrix3;
 use serde::Serialize;
 
-use crate::estimator::odometry_noise;
+use crate::estimator::{localizer_config, odometry_noise};
 use crate::replay::{ReplayError, ReplaySources};
 use crate::scenario::Scenario;
 use crate::stored_map::{wall_position, MAP_CELL_M};
 use crate::vehicle::SimPose;
 use graph::{Prior, Problem, Relative};
 use landmark_fit::FitConfig;
-use steps::{StepNoise, StepSource};
 use walls::{Stations, SurveyedWall};
 
 /// A landmark whose position in mine coordinates is known (surveyed by the mine's
@@ -86,13 +86,13 @@ pub struct SurveyOptions {
 }
 
 impl Default for SurveyOptions {
-    /// A keyframe every 0.25 m, landmarks within 20 m, the design as prior with a 0.1 m
+    /// A keyframe every 0.25 m, landmarks within 20 m, the design as prior with a 0.05 m
     /// tolerance, 10 fits per landmark, 30 iterations.
     fn default() -> Self {
         Self {
             keyframe_spacing_m: 0.25,
             landmark_range_m: 20.0,
-            design_tolerance_m: Some(0.1),
+            design_tolerance_m: Some(0.05),
             anchors: Vec::new(),
             min_observations: 10,
             max_iterations: 30,
@@ -214,10 +214,14 @@ pub struct Survey {
     pub keyframes: usize,
     /// The solved trajectory (one pose per keyframe) with each keyframe's scan time.
     pub trajectory: Vec<(f64, SimPose)>,
-    /// Keyframe steps whose across-tunnel offset and heading came from the walls.
-    pub wall_steps: usize,
-    /// Steps on the odometry alone.
+    /// Odometry steps (one per pair of consecutive keyframes).
     pub odometry_steps: usize,
+    /// Scan-to-scan factors (across and heading from the walls), over every baseline of
+    /// [`scan_steps::BASELINES`].
+    pub scan_steps: usize,
+    /// Consecutive keyframes whose scans could not be matched (no wall in common, a
+    /// changed scene): across and heading there rest on the odometry and the landmarks.
+    pub unmatched_steps: usize,
     /// Stretches without any landmark fix longer than `max_unobserved_m`: their
     /// along-tunnel extent is the odometry's.
     pub along_unobserved: Vec<Stretch>,
@@ -384,21 +388,21 @@ pub fn survey(
     for (g, &j) in in_graph.iter().enumerate() {
         graph_index[j] = Some(g);
     }
-    let noise = StepNoise::with_odometry(odometry_noise(&scenario));
+    let odometry = odometry_noise(&scenario);
     let mut problem = Problem {
         keyframes: kfs.iter().map(|k| k.guess).collect(),
         ..Problem::default()
     };
-    let (mut wall_steps, mut odometry_steps) = (0usize, 0usize);
     let scales = steps::local_scales(kfs);
-    for k in 0..kfs.len() - 1 {
-        let (r, source) = steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &noise);
-        match source {
-            StepSource::Walls => wall_steps += 1,
-            StepSource::Odometry => odometry_steps += 1,
-        }
-        problem.steps.push(r);
-    }
+    problem.steps = (0..kfs.len() - 1)
+        .map(|k| steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry))
+        .collect();
+    let odometry_steps = problem.steps.len();
+    let match_config = scan_steps::scan_match_config(&localizer_config(&scenario).matching);
+    let scan = scan_steps::scan_factors(kfs, &problem.steps, &match_config);
+    let scan_steps = scan.factors.len();
+    let unmatched_steps = scan.unmatched_steps;
+    problem.steps.extend(scan.factors);
     let mut implied: Vec<Vec<SimPose>> = vec![Vec::new(); in_graph.len()];
     for s in &seen {
         for f in &s.fixes {
@@ -456,7 +460,7 @@ pub fn survey(
             graph_index[f.to].is_some_and(|g| {
                 priors[f.to]
                     .model
-                    .covers(solution.landmarks[g].apply_inverse(w))
+                    .covers_landmark(solution.landmarks[g].apply_inverse(w))
             })
         })
     };
@@ -566,7 +570,7 @@ pub fn survey(
         }
     }
     let unobserved_m: f64 = along_unobserved.iter().map(|s| s.to_m - s.from_m).sum();
-    let along_unobserved_sd_m = f64::from(noise.odometry.scale_sd) * unobserved_m;
+    let along_unobserved_sd_m = f64::from(odometry.scale_sd) * unobserved_m;
     let unexplained = cluster_unexplained(&seen);
     let mut warnings = front.replay.warnings.clone();
     let not_seen = landmarks
@@ -590,7 +594,7 @@ pub fn survey(
             "no landmark was surveyed: the map's along-tunnel extent is unobservable from the scans and rests on the odometry alone (±{:.2} m over {:.0} m driven at the odometry's {:.1} % scale uncertainty)",
             along_unobserved_sd_m,
             unobserved_m,
-            100.0 * noise.odometry.scale_sd
+            100.0 * odometry.scale_sd
         ));
     } else if !along_unobserved.is_empty() {
         warnings.push(format!(
@@ -619,8 +623,9 @@ pub fn survey(
             .zip(&solution.keyframes)
             .map(|(k, p)| (k.t_s, *p))
             .collect(),
-        wall_steps,
         odometry_steps,
+        scan_steps,
+        unmatched_steps,
         along_unobserved,
         along_unobserved_sd_m,
         unsurveyed_walls,

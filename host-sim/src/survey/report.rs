@@ -30,10 +30,12 @@ pub struct SurveyJson<'a> {
     pub prior_landmarks: usize,
     /// Landmarks surveyed (in the map).
     pub surveyed_landmarks: usize,
-    /// Steps whose across-tunnel offset and heading came from the walls.
-    pub wall_steps: usize,
-    /// Steps on the odometry alone.
+    /// Odometry steps between consecutive keyframes.
     pub odometry_steps: usize,
+    /// Scan-to-scan factors (across and heading from the walls).
+    pub scan_steps: usize,
+    /// Consecutive keyframes whose scans could not be matched.
+    pub unmatched_steps: usize,
     /// Median 1σ along the wall of the surveyed landmarks, metres.
     pub median_sd_along_m: f64,
     /// Largest 1σ along the wall, metres.
@@ -79,8 +81,9 @@ pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
         keyframes: s.keyframes,
         prior_landmarks: s.landmarks.len(),
         surveyed_landmarks: s.map.landmarks().len(),
-        wall_steps: s.wall_steps,
         odometry_steps: s.odometry_steps,
+        scan_steps: s.scan_steps,
+        unmatched_steps: s.unmatched_steps,
         median_sd_along_m: median,
         max_sd_along_m: max,
         along_unobserved: &s.along_unobserved,
@@ -156,8 +159,8 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
     );
     let _ = writeln!(
         o,
-        "keyframe steps: {} across/heading from the walls, {} on the odometry alone",
-        s.wall_steps, s.odometry_steps
+        "keyframe steps: {} from the odometry, {} scan-to-scan matches (across and heading), {} consecutive keyframes unmatched",
+        s.odometry_steps, s.scan_steps, s.unmatched_steps
     );
     if let Some(t) = truth.filter(|t| t.prior.paired + t.surveyed.paired > 0) {
         let _ = writeln!(o, "\nlandmarks against the true as-built map:");
