@@ -145,6 +145,10 @@ struct ScenarioArgs {
     /// keeps the marks).
     #[arg(long)]
     install_sd: Option<f64>,
+    /// A landmark moved along its wall after the map was made, `INDEX,ALONG_M` (true
+    /// tunnel only; repeatable): what a survey refresh must detect.
+    #[arg(long, value_name = "INDEX,ALONG_M")]
+    move_landmark: Vec<String>,
     /// Drive only this many metres from the start.
     #[arg(long)]
     length: Option<f64>,
@@ -170,6 +174,10 @@ struct RunArgs {
     /// truth, map) into this directory, for `host-sim replay`.
     #[arg(long)]
     record: Option<PathBuf>,
+    /// Localise against this loc-core map file (e.g. `host-sim survey`'s survey.postcard)
+    /// instead of the design's map; the simulated tunnel stays the scenario's.
+    #[arg(long)]
+    map: Option<PathBuf>,
     /// Print the metrics as one JSON object instead of the report.
     #[arg(long)]
     json: bool,
@@ -453,6 +461,7 @@ impl ScenarioArgs {
             missing_fraction: None,
             damage_fraction: None,
             install_sd: None,
+            move_landmark: Vec::new(),
             length: None,
             speed: None,
             rate: None,
@@ -483,6 +492,11 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
         missing_fraction: a.missing_fraction,
         damage_fraction: a.damage_fraction,
         install_sd_m: a.install_sd,
+        moved: a
+            .move_landmark
+            .iter()
+            .map(|t| parse_moved(t))
+            .collect::<Result<_, _>>()?,
         drive_length_m: a.length,
         speed_mps: a.speed,
         rate: a.rate.map(|r| match r {
@@ -515,9 +529,31 @@ fn progress_bar(label: &str, enabled: bool) -> Option<ProgressBar> {
     Some(bar)
 }
 
+/// `INDEX,ALONG_M` of `--move-landmark`.
+fn parse_moved(text: &str) -> Result<host_sim::scenario::MovedLandmark, String> {
+    let bad = || format!("--move-landmark {text}: expected INDEX,ALONG_M (e.g. 20,0.08)");
+    let (i, d) = text.split_once(',').ok_or_else(bad)?;
+    Ok(host_sim::scenario::MovedLandmark {
+        index: i.trim().parse().map_err(|_| bad())?,
+        along_m: d.trim().parse().map_err(|_| bad())?,
+    })
+}
+
 fn run_with_progress(
     s: &Scenario,
     est: EstimatorChoice,
+    label: &str,
+    show: bool,
+    keep_scans: bool,
+) -> Result<RunLog, String> {
+    run_with_progress_on(s, est, None, label, show, keep_scans)
+}
+
+/// [`run_with_progress`], against `map` instead of the design's when given.
+fn run_with_progress_on(
+    s: &Scenario,
+    est: EstimatorChoice,
+    map: Option<&loc_core::map::TunnelMap>,
     label: &str,
     show: bool,
     keep_scans: bool,
@@ -538,7 +574,11 @@ fn run_with_progress(
         keep_scans,
         progress: Some(&cb),
     };
-    let log = run_scenario(s, est, &options).map_err(|e| e.to_string());
+    let log = match map {
+        Some(map) => host_sim::session::run_scenario_with_map(s, map, &options),
+        None => run_scenario(s, est, &options),
+    }
+    .map_err(|e| e.to_string());
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -555,7 +595,16 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
     };
     // Recordings, scans in run.mcap: the run keeps its scans (about 2.3 kB each).
     let keep = a.out.is_some() || a.record.is_some();
-    let log = run_with_progress(&s, est, &s.name, !a.quiet, keep)?;
+    let map = match &a.map {
+        Some(path) => {
+            if est != EstimatorChoice::Localizer {
+                return Err("--map needs the localizer estimator (odometry uses no map)".into());
+            }
+            Some(host_sim::replay::read_map(path).map_err(|e| e.to_string())?)
+        }
+        None => None,
+    };
+    let log = run_with_progress_on(&s, est, map.as_deref(), &s.name, !a.quiet, keep)?;
     let m = log.metrics();
     if a.json {
         out(&MetricsJson::new(&log, &m).to_json())?;

@@ -73,6 +73,21 @@ pub fn run_scenario(
     }
 }
 
+/// Runs `scenario` with loc-core's localiser against `map` instead of the map built from the
+/// design (a surveyed map, `host-sim survey`'s; or any loc-core map file): the simulated
+/// tunnel stays the scenario's, so the metrics say how well the vehicle localises in the
+/// true tunnel with that map.
+pub fn run_scenario_with_map(
+    scenario: &Scenario,
+    map: &loc_core::map::TunnelMap,
+    options: &RunOptions<'_>,
+) -> Result<RunLog, SimError> {
+    scenario.validate()?;
+    let world = scenario.build_world()?;
+    let mut est = LocCoreEstimator::new(map, scenario);
+    Ok(closed_loop::run(scenario, &world, &mut est, options))
+}
+
 /// Odometry alone over `scenario` with default options (tests of the outputs and reports).
 #[cfg(test)]
 pub(crate) fn odometry_run(scenario: &Scenario) -> RunLog {

@@ -100,11 +100,7 @@ fn sources(a: &SurveyArgs) -> Result<ReplaySources, String> {
 }
 
 fn read_map(path: &Path) -> Result<Box<loc_core::map::TunnelMap>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let mut map = Box::<loc_core::map::TunnelMap>::default();
-    map.load_from_bytes(&bytes)
-        .map_err(|e| format!("{} is not a loc-core map file: {e}", path.display()))?;
-    Ok(map)
+    host_sim::replay::read_map(path).map_err(|e| e.to_string())
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, String> {

@@ -1,7 +1,8 @@
-//! `host-sim survey` end to end (issue 10, in progress): a simulated drive with landmarks
-//! installed off their marks is surveyed; the surveyed landmarks are closer to the truth
-//! than the design's, the map loads and localises, and landmarks missing from the tunnel
-//! are reported and left out of the map.
+//! `host-sim survey` end to end (issue 10): a simulated drive with landmarks installed off
+//! their marks is surveyed; the surveyed landmarks are closer to the truth than the
+//! design's, the map loads and localises; landmarks missing from the tunnel, moved since
+//! the last survey, or not in it are reported; damaged recordings (dropped scans,
+//! corrupted telegrams, a gap in the odometry) are surveyed around and reported.
 
 use std::path::Path;
 use std::process::Command;
@@ -41,15 +42,20 @@ fn record(dir: &Path, extra: &[&str]) {
 }
 
 fn survey(rec: &Path, out: &Path) -> serde_json::Value {
-    let text = ok(&host_sim(&[
+    survey_with(rec, out, &[])
+}
+
+fn survey_with(rec: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
         "survey",
         rec.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
         "--json",
         "--quiet",
-    ]));
-    serde_json::from_str(&text).unwrap()
+    ];
+    args.extend_from_slice(extra);
+    serde_json::from_str(&ok(&host_sim(&args))).unwrap()
 }
 
 #[test]
@@ -62,7 +68,8 @@ fn a_drive_past_misplaced_landmarks_surveys_them_closer_than_the_design() {
     let design = truth["prior"]["rms_m"].as_f64().unwrap();
     let surveyed = truth["surveyed"]["rms_m"].as_f64().unwrap();
     assert!(design > 0.02, "the installation error is there: {design}");
-    // 200 m measured: 21.6 mm against 32.2 mm (the survey is not yet at its 10 mm aim).
+    // 200 m measured: 18.6 mm against 32.2 mm (the kilometre, with more of the design's
+    // marks to average, reaches 9.4 mm: README).
     assert!(
         surveyed < 0.8 * design,
         "surveyed {surveyed} m, design {design} m"
@@ -90,6 +97,29 @@ fn a_drive_past_misplaced_landmarks_surveys_them_closer_than_the_design() {
     ]));
     let r: serde_json::Value = serde_json::from_str(&r).unwrap();
     assert!(r["position_rms_m"].as_f64().unwrap() < 0.03, "{r}");
+    // And `run --map` drives the same tunnel localising against it: better than against
+    // the design.
+    let run = |extra: &[&str]| -> f64 {
+        let mut args = vec![
+            "run",
+            "--scenario",
+            "demo-200m",
+            "--seed",
+            "7",
+            "--install-sd",
+            "0.03",
+            "--quiet",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let v: serde_json::Value = serde_json::from_str(&ok(&host_sim(&args))).unwrap();
+        v["position_rms_m"].as_f64().unwrap()
+    };
+    let (with_design, with_survey) = (run(&[]), run(&["--map", map.to_str().unwrap()]));
+    assert!(
+        with_survey < with_design,
+        "run --map: {with_survey} m against the design's {with_design} m"
+    );
 }
 
 #[test]
@@ -138,4 +168,174 @@ fn without_landmarks_the_along_tunnel_extent_is_reported_unobservable() {
         .iter()
         .any(|w| w.as_str().unwrap().contains("unobservable")));
     assert!(out.join("survey.postcard").is_file());
+}
+
+#[test]
+fn a_refresh_from_a_later_drive_reports_a_moved_and_a_knocked_off_landmark() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n);
+    record(&p("r1"), &[]);
+    survey(&p("r1"), &p("s1"));
+    // Later: landmark 10 knocked 8 cm along its wall, landmark 20 60 cm (too far to be
+    // taken for itself: gone from its place, and a landmark where none should be).
+    record(
+        &p("r2"),
+        &["--move-landmark", "10,0.08", "--move-landmark", "20,0.6"],
+    );
+    let previous = p("s1").join("survey.postcard");
+    let j = survey_with(
+        &p("r2"),
+        &p("s2"),
+        &[
+            "--design",
+            previous.to_str().unwrap(),
+            "--tolerance",
+            "0.01",
+        ],
+    );
+    let landmarks = j["landmarks"].as_array().unwrap();
+    let moved: Vec<_> = landmarks.iter().filter(|l| l["state"] == "moved").collect();
+    assert_eq!(moved.len(), 1, "only the landmark moved 8 cm: {moved:?}");
+    let shift = moved[0]["from_prior_m"][0].as_f64().unwrap();
+    assert!((shift - 0.08).abs() < 0.015, "moved by {shift} m");
+    // Surveyed where it is now: in the map, and the map's landmarks all in the tunnel.
+    assert!(moved[0]["map_index"].is_u64());
+    assert_eq!(
+        j["against_truth"]["surveyed"]["unpaired"].as_u64().unwrap(),
+        0
+    );
+    // The one moved 60 cm: not seen at its old place, and returns near its new one.
+    let gone: Vec<_> = landmarks
+        .iter()
+        .filter(|l| l["state"] == "not-seen" && l["failed_fits"].as_u64().unwrap() > 0)
+        .collect();
+    assert_eq!(gone.len(), 1, "{gone:?}");
+    let (gx, gy) = (
+        gone[0]["x_m"].as_f64().unwrap(),
+        gone[0]["y_m"].as_f64().unwrap(),
+    );
+    assert!(
+        j["unexplained"].as_array().unwrap().iter().any(|u| {
+            let d = (u["x_m"].as_f64().unwrap() - gx).hypot(u["y_m"].as_f64().unwrap() - gy);
+            (0.3..1.0).contains(&d)
+        }),
+        "{}",
+        j["unexplained"]
+    );
+    let warnings = j["warnings"].as_array().unwrap();
+    for needle in [
+        "moved since",
+        "left out of the map",
+        "no landmark of the design explains",
+    ] {
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.as_str().unwrap().contains(needle)),
+            "{needle}: {warnings:?}"
+        );
+    }
+}
+
+/// Rewrites a recording's scanner stream keeping telegram `i` as `edit(i, bytes)` returns it
+/// (`None`: dropped, its time stamp row too), offsets renumbered.
+fn edit_scans(rec: &Path, edit: impl Fn(usize, &[u8]) -> Option<Vec<u8>>) {
+    let bin = std::fs::read(rec.join("scanner.colab.bin")).unwrap();
+    let times = std::fs::read_to_string(rec.join("scanner.colab.times.csv")).unwrap();
+    let mut lines = times.lines();
+    let mut new_times = format!("{}\n", lines.next().unwrap());
+    let mut new_bin = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let v: Vec<&str> = line.split(',').collect();
+        let (off, len): (usize, usize) = (v[2].parse().unwrap(), v[3].parse().unwrap());
+        if let Some(bytes) = edit(i, &bin[off..off + len]) {
+            new_times += &format!(
+                "{},{},{},{},{}\n",
+                v[0],
+                v[1],
+                new_bin.len(),
+                bytes.len(),
+                v[4]
+            );
+            new_bin.extend_from_slice(&bytes);
+        }
+    }
+    std::fs::write(rec.join("scanner.colab.bin"), new_bin).unwrap();
+    std::fs::write(rec.join("scanner.colab.times.csv"), new_times).unwrap();
+}
+
+/// The survey of a damaged 200 m recording still beats the design, has no landmark the
+/// tunnel does not, and says what was wrong in a warning containing `needle`.
+fn check_damaged_survey(j: &serde_json::Value, needle: &str) {
+    let truth = &j["against_truth"];
+    let design = truth["prior"]["rms_m"].as_f64().unwrap();
+    let surveyed = truth["surveyed"]["rms_m"].as_f64().unwrap();
+    assert!(
+        surveyed < 0.8 * design,
+        "surveyed {surveyed} m, design {design} m"
+    );
+    assert_eq!(truth["surveyed"]["unpaired"].as_u64().unwrap(), 0, "{j}");
+    let warnings = j["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().contains(needle)),
+        "{needle}: {warnings:?}"
+    );
+}
+
+#[test]
+fn dropped_scans_are_reported_as_a_stretch_without_scans() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    record(&rec, &[]);
+    // Four seconds of telegrams lost (about 10 m of the drive).
+    edit_scans(&rec, |i, b| (!(800..900).contains(&i)).then(|| b.to_vec()));
+    let j = survey(&rec, &out);
+    let gaps = j["scan_gaps"].as_array().unwrap();
+    assert_eq!(gaps.len(), 1, "{gaps:?}");
+    let len = gaps[0]["to_m"].as_f64().unwrap() - gaps[0]["from_m"].as_f64().unwrap();
+    assert!((5.0..15.0).contains(&len), "{len} m");
+    check_damaged_survey(&j, "without scans");
+}
+
+#[test]
+fn corrupted_telegrams_are_read_around_and_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    record(&rec, &[]);
+    // Twenty telegrams with a byte of their scan data flipped (the checksum fails).
+    edit_scans(&rec, |i, b| {
+        let mut b = b.to_vec();
+        if i % 50 == 7 && i < 1000 {
+            let k = b.len() / 2;
+            b[k] ^= 0x5a;
+        }
+        Some(b)
+    });
+    let j = survey(&rec, &out);
+    check_damaged_survey(&j, "scanner recording");
+}
+
+#[test]
+fn an_odometry_gap_is_bridged_and_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    record(&rec, &[]);
+    // Three seconds of odometry readings lost on the bus (about 7 m of motion).
+    let path = rec.join("odometry.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            l.split(',')
+                .next()
+                .and_then(|t| t.parse::<f64>().ok())
+                .is_none_or(|t| !(30.0..33.0).contains(&t))
+        })
+        .collect();
+    std::fs::write(&path, kept.join("\n") + "\n").unwrap();
+    let j = survey(&rec, &out);
+    assert!(!j["odometry_gaps"].as_array().unwrap().is_empty(), "{j}");
+    check_damaged_survey(&j, "gaps in the odometry");
 }

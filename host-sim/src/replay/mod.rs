@@ -253,6 +253,9 @@ pub struct Replay {
     /// The per-scan Cramér–Rao bound beside the error ([`ReplayOptions::bound`], with
     /// ground truth).
     pub bound: Option<bound::BoundSummary>,
+    /// Time the odometry log leaves uncovered, `(from_s, to_s)`: motion nobody measured
+    /// (the dead reckoning of [`ReplayStep::odometry`] misses it).
+    pub odometry_gaps: Vec<(f64, f64)>,
 }
 
 /// Refuses odometry and scans that do not overlap in time: they are then on different
@@ -335,6 +338,21 @@ pub fn replay(sources: &ReplaySources, choice: EstimatorChoice) -> Result<Replay
     replay_with(sources, choice, &ReplayOptions::default())
 }
 
+/// Reads a loc-core map file (the firmware's format: versioned, checksummed) from `path`.
+pub fn read_map(path: &Path) -> Result<Box<TunnelMap>, ReplayError> {
+    let bytes = std::fs::read(path).map_err(|source| ReplayError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut map = Box::<TunnelMap>::default();
+    map.load_from_bytes(&bytes)
+        .map_err(|source| ReplayError::Map {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(map)
+}
+
 /// Runs a replay with the chosen estimator and options.
 pub fn replay_with(
     sources: &ReplaySources,
@@ -345,20 +363,17 @@ pub fn replay_with(
     let scenario = Scenario::from_file(&sources.scenario)?;
     // The centre line alone (for the along/across split): no simulated world is built.
     let line = scenario.centerline()?;
-    let map_bytes = std::fs::read(&sources.map).map_err(|source| ReplayError::Io {
-        path: sources.map.clone(),
-        source,
-    })?;
-    let mut map = Box::<TunnelMap>::default();
-    map.load_from_bytes(&map_bytes)
-        .map_err(|source| ReplayError::Map {
-            path: sources.map.clone(),
-            source,
-        })?;
+    let map = read_map(&sources.map)?;
     // The scanner recording is streamed through the estimator: memory holds one record of
     // it, the per-scan results and (for `--out`'s MCAP file) the scans only when asked.
     let mut stream = ScanStream::open(&sources.scanner, sources.scanner_times.as_deref())?;
     let checked = odometry_check::check(&odometry_csv::read(&sources.odometry)?)?;
+    let odometry_gaps: Vec<(f64, f64)> = checked
+        .findings
+        .iter()
+        .filter(|f| f.kind == odometry_check::FindingKind::Gap)
+        .map(|f| (f.t_s - f.value, f.t_s))
+        .collect();
     let odometry = &checked.readings;
     let truth = match &sources.ground_truth {
         Some(p) => Some(truth_csv::read(p)?),
@@ -501,6 +516,7 @@ pub fn replay_with(
         map,
         warnings,
         bound,
+        odometry_gaps,
     })
 }
 

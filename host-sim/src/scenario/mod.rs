@@ -135,6 +135,19 @@ pub struct LandmarkConfig {
     /// (folded to be non-negative).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub install_standoff_sd_m: f64,
+    /// Landmarks moved along their wall after the map was made (knocked, remounted): in
+    /// the true tunnel only, on top of the installation error.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub moved: Vec<MovedLandmark>,
+}
+
+/// One landmark moved along its wall in the true tunnel.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MovedLandmark {
+    /// Its index in the layout (as in `export-map --format json`).
+    pub index: usize,
+    /// How far it moved along the wall, metres (+: increasing chainage).
+    pub along_m: f64,
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -176,6 +189,7 @@ impl Default for LandmarkConfig {
             keep_fraction: default_keep(),
             install_sd_m: 0.0,
             install_standoff_sd_m: 0.0,
+            moved: Vec::new(),
         }
     }
 }
@@ -575,6 +589,13 @@ impl Scenario {
             "must lie in [0, 0.2] m",
         )?;
         check(
+            l.moved
+                .iter()
+                .all(|m| m.along_m.is_finite() && m.along_m.abs() <= 5.0),
+            "landmarks.moved",
+            "each along_m must lie in [-5, 5] m",
+        )?;
+        check(
             l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0,
             "landmarks.bend_deg",
             "must lie in [-90, 90]",
@@ -852,6 +873,18 @@ impl Scenario {
             l.install_standoff_sd_m,
             &mut Pcg32::new(self.seed, 0x1257),
         );
+        for m in &l.moved {
+            let count = world.placements().len();
+            if !world.move_landmark(m.index, m.along_m) {
+                return Err(ScenarioError::Invalid {
+                    key: "landmarks.moved",
+                    reason: format!(
+                        "landmark {} does not exist (the layout has {count}, indices from 0)",
+                        m.index
+                    ),
+                });
+            }
+        }
         Ok(world)
     }
 }

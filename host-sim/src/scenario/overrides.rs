@@ -24,6 +24,8 @@ pub struct Overrides {
     pub damage_fraction: Option<f64>,
     /// σ of the landmarks' installation error along the wall, metres.
     pub install_sd_m: Option<f64>,
+    /// Landmarks moved after the map was made (added to the scenario's).
+    pub moved: Vec<super::MovedLandmark>,
     /// Length of the drive from its start, metres.
     pub drive_length_m: Option<f64>,
     /// Cruise speed, m/s.
@@ -65,6 +67,7 @@ impl Overrides {
         if let Some(sd) = self.install_sd_m {
             s.landmarks.install_sd_m = sd;
         }
+        s.landmarks.moved.extend_from_slice(&self.moved);
         if let Some(len) = self.drive_length_m {
             if !(len.is_finite() && len > 0.0) {
                 return Err(ScenarioError::Invalid {

@@ -157,6 +157,7 @@ pub fn solve(problem: &Problem, max_iterations: usize) -> Result<Solution, Graph
                 X(s.to as u32),
             )
             .noise(n)
+            .robust(Huber::default())
             .build(),
         );
     }

@@ -124,10 +124,22 @@ pub enum Gauge {
 pub enum LandmarkState {
     /// Surveyed, and in the map.
     Surveyed,
+    /// Surveyed and in the map, but more than [`MOVED_SIGMAS`] × the prior's tolerance from
+    /// where the prior has it: moved since the prior was made (a survey refreshed from a
+    /// later drive), or mounted far off its mark.
+    Moved,
     /// Passed within range but seen too seldom to survey: left out of the map (fallen
     /// off, hidden, or moved away from its mark).
     NotSeen,
 }
+
+/// Consecutive keyframes farther apart than this (metres driven) mark a stretch without
+/// scans.
+pub const MAX_KEYFRAME_GAP_M: f64 = 2.0;
+
+/// A surveyed landmark farther than this many tolerances (`--tolerance`, along; half of it
+/// across) from its prior pose is reported [`LandmarkState::Moved`].
+pub const MOVED_SIGMAS: f64 = 3.0;
 
 /// One landmark of the prior map in the survey.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -222,6 +234,12 @@ pub struct Survey {
     /// Consecutive keyframes whose scans could not be matched (no wall in common, a
     /// changed scene): across and heading there rest on the odometry and the landmarks.
     pub unmatched_steps: usize,
+    /// Keyframe steps across a gap in the odometry log (from the localiser's poses,
+    /// loosely; placed by the landmarks and scan matches).
+    pub odometry_gaps: Vec<Stretch>,
+    /// Stretches without scans (dropped or undecodable telegrams), longer than
+    /// [`MAX_KEYFRAME_GAP_M`]: their walls are interpolated, their landmarks seen from afar.
+    pub scan_gaps: Vec<Stretch>,
     /// Stretches without any landmark fix longer than `max_unobserved_m`: their
     /// along-tunnel extent is the odometry's.
     pub along_unobserved: Vec<Stretch>,
@@ -393,10 +411,37 @@ pub fn survey(
         keyframes: kfs.iter().map(|k| k.guess).collect(),
         ..Problem::default()
     };
-    let scales = steps::local_scales(kfs);
-    problem.steps = (0..kfs.len() - 1)
-        .map(|k| steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry))
+    // Steps across time the odometry log does not cover: its dead reckoning misses that
+    // motion.
+    let gaps = &front.replay.odometry_gaps;
+    let gap_steps: Vec<bool> = kfs
+        .windows(2)
+        .map(|w| gaps.iter().any(|g| g.1 > w[0].t_s && g.0 < w[1].t_s))
         .collect();
+    let scales = steps::local_scales(kfs, &gap_steps);
+    problem.steps = (0..kfs.len() - 1)
+        .map(|k| {
+            if gap_steps[k] {
+                steps::gap_step(&kfs[k], &kfs[k + 1], k)
+            } else {
+                steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry)
+            }
+        })
+        .collect();
+    let driven = driven_m(kfs);
+    let stretches_where = |flags: &dyn Fn(usize) -> bool| -> Vec<Stretch> {
+        (0..kfs.len() - 1)
+            .filter(|&k| flags(k))
+            .map(|k| Stretch {
+                from_m: driven[k],
+                to_m: driven[k + 1],
+                at: (kfs[k].guess.x_m, kfs[k].guess.y_m),
+            })
+            .collect()
+    };
+    let odometry_gaps = stretches_where(&|k| gap_steps[k]);
+    // Scans missing (dropped, undecodable): keyframes farther apart than this.
+    let scan_gaps = stretches_where(&|k| driven[k + 1] - driven[k] > MAX_KEYFRAME_GAP_M);
     let odometry_steps = problem.steps.len();
     let match_config = scan_steps::scan_match_config(&localizer_config(&scenario).matching);
     let scan = scan_steps::scan_factors(kfs, &problem.steps, &match_config);
@@ -512,10 +557,14 @@ pub fn survey(
             prior_index: j,
             map_index,
             wall: wall_name(p.wall),
-            state: if map_index.is_some() {
-                LandmarkState::Surveyed
-            } else {
-                LandmarkState::NotSeen
+            state: match (map_index, options.design_tolerance_m) {
+                (None, _) => LandmarkState::NotSeen,
+                (Some(_), Some(tol))
+                    if (from_prior.x_m / tol).hypot(2.0 * from_prior.y_m / tol) > MOVED_SIGMAS =>
+                {
+                    LandmarkState::Moved
+                }
+                (Some(_), _) => LandmarkState::Surveyed,
             },
             x_m: pose.x_m,
             y_m: pose.y_m,
@@ -544,7 +593,6 @@ pub fn survey(
     .map_err(SurveyError::Map)?;
 
     // Stretches without a landmark fix: their along-tunnel extent is the odometry's.
-    let driven = driven_m(kfs);
     let mut along_unobserved = Vec::new();
     let mut start: Option<usize> = None;
     let fixed_at: Vec<bool> = seen
@@ -581,6 +629,30 @@ pub fn survey(
         warnings.push(format!(
             "{not_seen} landmarks of the design passed within {:.0} m but were fitted in fewer than {} scans: left out of the map (fallen off, hidden, or moved from their marks; see the landmark table)",
             options.landmark_range_m, options.min_observations
+        ));
+    }
+    if !odometry_gaps.is_empty() {
+        warnings.push(format!(
+            "{} keyframe steps cross gaps in the odometry log (first at {:.1} m driven): there the keyframes rest on the landmarks and the scans, not on the odometry (see `odometry_gaps`)",
+            odometry_gaps.len(),
+            odometry_gaps[0].from_m
+        ));
+    }
+    if !scan_gaps.is_empty() {
+        let m: f64 = scan_gaps.iter().map(|s| s.to_m - s.from_m).sum();
+        warnings.push(format!(
+            "{} stretches without scans ({m:.1} m; first at {:.1} m driven): walls there interpolated, landmarks there seen only from afar (see `scan_gaps`)",
+            scan_gaps.len(),
+            scan_gaps[0].from_m
+        ));
+    }
+    let moved = landmarks
+        .iter()
+        .filter(|l| l.state == LandmarkState::Moved)
+        .count();
+    if moved > 0 {
+        warnings.push(format!(
+            "{moved} landmarks were surveyed more than {MOVED_SIGMAS}× the tolerance from where the prior map has them: moved since it was made, or mounted far off their marks (in the map where surveyed; see the landmark table)"
         ));
     }
     if !unexplained.is_empty() {
@@ -627,6 +699,8 @@ pub fn survey(
         scan_steps,
         unmatched_steps,
         along_unobserved,
+        odometry_gaps,
+        scan_gaps,
         along_unobserved_sd_m,
         unsurveyed_walls,
         unexplained,

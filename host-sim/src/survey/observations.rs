@@ -89,20 +89,23 @@ pub fn observe(
         let pts: Vec<(f64, f64)> = kf
             .points
             .iter()
-            .zip(covered.iter_mut())
-            .filter(|(p, _)| model.covers(t0.apply_inverse(**p)))
-            .map(|(p, c)| {
-                *c = true;
-                *p
-            })
+            .filter(|p| model.covers(t0.apply_inverse(**p)))
+            .copied()
             .collect();
         match fit(model, &pts, t0, config) {
-            Some(f) => seen.fixes.push(Relative {
-                from: k,
-                to: j,
-                z: f.pose,
-                covariance: f.covariance,
-            }),
+            Some(f) => {
+                // Explained: what lies on the landmark where it was fitted (not the wall
+                // runs around it, where a landmark moved a little way off its mark shows).
+                for (p, c) in kf.points.iter().zip(covered.iter_mut()) {
+                    *c |= model.covers_landmark(f.pose.apply_inverse(*p));
+                }
+                seen.fixes.push(Relative {
+                    from: k,
+                    to: j,
+                    z: f.pose,
+                    covariance: f.covariance,
+                });
+            }
             None => seen.failed.push(j),
         }
     }

@@ -9,15 +9,13 @@ use std::path::{Path, PathBuf};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{LandmarkState, Survey};
+use super::Survey;
 use crate::plot::chart::{legend, swatch};
 use crate::plot::style::{self, msg, FONT};
 use crate::plot::{plot_both, CHART_SIZE};
 
 fn surveyed(s: &Survey) -> impl Iterator<Item = &super::SurveyedLandmark> {
-    s.landmarks
-        .iter()
-        .filter(|l| l.state == LandmarkState::Surveyed)
+    s.landmarks.iter().filter(|l| l.map_index.is_some())
 }
 
 fn draw_walls<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Survey) -> Result<(), String> {

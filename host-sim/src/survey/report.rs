@@ -44,6 +44,10 @@ pub struct SurveyJson<'a> {
     pub along_unobserved: &'a [Stretch],
     /// Their 1σ from the odometry's scale uncertainty, metres.
     pub along_unobserved_sd_m: f64,
+    /// Keyframe steps across gaps in the odometry log.
+    pub odometry_gaps: &'a [Stretch],
+    /// Stretches without scans.
+    pub scan_gaps: &'a [Stretch],
     /// Wall stretches interpolated: `(wall, from s m, to s m)`.
     pub unsurveyed_walls: &'a [(&'static str, f64, f64)],
     /// Landmark-like returns no prior landmark explains.
@@ -62,7 +66,7 @@ fn sd_stats(s: &Survey) -> (f64, f64) {
     let mut v: Vec<f64> = s
         .landmarks
         .iter()
-        .filter(|l| l.state == LandmarkState::Surveyed)
+        .filter(|l| l.map_index.is_some())
         .map(|l| l.sd_along_m)
         .collect();
     v.sort_unstable_by(f64::total_cmp);
@@ -88,6 +92,8 @@ pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
         max_sd_along_m: max,
         along_unobserved: &s.along_unobserved,
         along_unobserved_sd_m: s.along_unobserved_sd_m,
+        odometry_gaps: &s.odometry_gaps,
+        scan_gaps: &s.scan_gaps,
         unsurveyed_walls: &s.unsurveyed_walls,
         unexplained: &s.unexplained,
         against_truth: truth,
@@ -106,6 +112,7 @@ pub fn landmarks_csv(s: &Survey) -> String {
         let state = match l.state {
             LandmarkState::Surveyed => "surveyed",
             LandmarkState::NotSeen => "not-seen",
+            LandmarkState::Moved => "moved",
         };
         let _ = writeln!(
             out,
@@ -201,6 +208,29 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
             );
         }
     }
+    let moved: Vec<&SurveyedLandmark> = s
+        .landmarks
+        .iter()
+        .filter(|l| l.state == LandmarkState::Moved)
+        .collect();
+    if !moved.is_empty() {
+        let _ = writeln!(
+            o,
+            "\nlandmarks moved from where the prior map has them (surveyed where they are now):"
+        );
+        for l in moved {
+            let _ = writeln!(
+                o,
+                "  #{:<4} {:<5} wall, s {:8.2} m: {:+.1} mm along, {:+.1} mm across ({} fits)",
+                l.prior_index,
+                l.wall,
+                l.s_m,
+                1e3 * l.from_prior_m.0,
+                1e3 * l.from_prior_m.1,
+                l.fits
+            );
+        }
+    }
     if !s.unexplained.is_empty() {
         let _ = writeln!(o, "\nlandmark-like returns no design landmark explains:");
         for u in &s.unexplained {
@@ -223,6 +253,21 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
                 "  {:8.1} – {:8.1} m driven, from ({:.1}, {:.1})",
                 st.from_m, st.to_m, st.at.0, st.at.1
             );
+        }
+    }
+    for (title, list) in [
+        ("steps across gaps in the odometry log", &s.odometry_gaps),
+        ("stretches without scans", &s.scan_gaps),
+    ] {
+        if !list.is_empty() {
+            let _ = writeln!(o, "\n{title}:");
+            for st in list.iter() {
+                let _ = writeln!(
+                    o,
+                    "  {:8.1} – {:8.1} m driven, from ({:.1}, {:.1})",
+                    st.from_m, st.to_m, st.at.0, st.at.1
+                );
+            }
         }
     }
     for w in &s.warnings {

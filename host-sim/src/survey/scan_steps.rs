@@ -32,6 +32,11 @@ use crate::vehicle::SimPose;
 /// (4 mm across error against 0.9 mm at 1 and 4, measured on `tunnel-1km`).
 pub const BASELINES: [usize; 4] = [1, 4, 8, 16];
 
+/// Keyframes farther apart than this are not matched (after dropped scans), metres: the
+/// longest baseline at the keyframes' real spacing (0.25 m and up to one scan's motion more,
+/// 0.36 m at 3 m/s and 25 Hz) with some slack.
+pub const MAX_BASELINE_M: f64 = 7.0;
+
 /// Wall points closer than this along the wall are averaged into one vertex of the
 /// earlier keyframe's walls, metres.
 pub const VERTEX_RUN_M: f64 = 0.06;
@@ -251,6 +256,10 @@ pub fn scan_factors(kfs: &[Keyframe], odometry: &[Relative], config: &MatchConfi
                 for (d, step) in odometry.iter().skip(a).take(longest).enumerate() {
                     odo = odo.compose(step.z);
                     let b = a + d + 1;
+                    // Past a stretch without scans the keyframes are too far apart to match.
+                    if odo.x_m.hypot(odo.y_m) > MAX_BASELINE_M {
+                        break;
+                    }
                     if let (true, Some(kb)) = (BASELINES.contains(&(d + 1)), kfs.get(b)) {
                         // Along: the odometry's (the factor keeps it); across and heading:
                         // the localiser's (over metres the odometry's drift by centimetres

@@ -24,9 +24,10 @@ pub const SCALE_WINDOW_M: f64 = 25.0;
 pub const ESTIMATED_SCALE_SD: f64 = 0.002;
 
 /// Per keyframe, the localiser's distance over the odometry's within [`SCALE_WINDOW_M`]
-/// of it (1 where the odometry did not move). With `None` for keyframes the localiser was
-/// not tracking, those steps count as neither.
-pub fn local_scales(kfs: &[Keyframe]) -> Vec<f64> {
+/// of it (1 where the odometry did not move). Steps where the localiser was not tracking
+/// at either end, or across a gap in the odometry (`gap_steps[k]`: step `k` → `k + 1`),
+/// count as neither.
+pub fn local_scales(kfs: &[Keyframe], gap_steps: &[bool]) -> Vec<f64> {
     let n = kfs.len();
     // Prefix sums of both distances per step (a step counts where both ends tracked).
     let mut odo = vec![0.0; n];
@@ -34,7 +35,9 @@ pub fn local_scales(kfs: &[Keyframe]) -> Vec<f64> {
     for k in 1..n {
         let o = kfs[k - 1].odometry.between(kfs[k].odometry);
         let e = kfs[k - 1].guess.between(kfs[k].guess);
-        let used = kfs[k - 1].tracking && kfs[k].tracking;
+        let used = kfs[k - 1].tracking
+            && kfs[k].tracking
+            && !gap_steps.get(k - 1).copied().unwrap_or(false);
         odo[k] = odo[k - 1] + if used { o.x_m.hypot(o.y_m) } else { 0.0 };
         est[k] = est[k - 1] + if used { e.x_m.hypot(e.y_m) } else { 0.0 };
     }
@@ -90,5 +93,26 @@ pub fn step(
         to: from + 1,
         z,
         covariance,
+    }
+}
+
+/// 1σ of a step across a gap in the odometry: along (m), across (m), heading (rad). The
+/// step is then the localiser's (which coasted across the gap and found the landmarks
+/// again), held loosely: the landmarks and the scan matches place the keyframes.
+pub const GAP_STEP_SD: (f64, f64, f64) = (0.5, 0.1, 0.05);
+
+/// The step from keyframe `a` (index `from`) to `b` across a gap in the odometry: the
+/// localiser's relative pose with [`GAP_STEP_SD`].
+pub fn gap_step(a: &Keyframe, b: &Keyframe, from: usize) -> Relative {
+    let (along, across, heading) = GAP_STEP_SD;
+    Relative {
+        from,
+        to: from + 1,
+        z: a.guess.between(b.guess),
+        covariance: Matrix3::from_diagonal(&nalgebra::Vector3::new(
+            heading * heading,
+            along * along,
+            across * across,
+        )),
     }
 }

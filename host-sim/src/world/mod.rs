@@ -137,6 +137,17 @@ impl World {
         self.grid = SegmentGrid::new(self.true_segments(), GRID_CELL_M);
     }
 
+    /// Moves landmark `index` by `along_m` along its wall in the true tunnel (the design
+    /// keeps its mark); false when there is no such landmark.
+    pub fn move_landmark(&mut self, index: usize, along_m: f64) -> bool {
+        let Some(p) = self.placements.get_mut(index) else {
+            return false;
+        };
+        p.installed_off_m.0 += along_m;
+        self.grid = SegmentGrid::new(self.true_segments(), GRID_CELL_M);
+        true
+    }
+
     /// The centre line.
     pub fn centerline(&self) -> &CenterLine {
         &self.centerline
