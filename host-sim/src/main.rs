@@ -149,6 +149,10 @@ struct ScenarioArgs {
     /// tunnel only; repeatable): what a survey refresh must detect.
     #[arg(long, value_name = "INDEX,ALONG_M")]
     move_landmark: Vec<String>,
+    /// No landmarks in the true tunnel between these chainages, `FROM_M,TO_M` (the design
+    /// keeps them).
+    #[arg(long, value_name = "FROM_M,TO_M")]
+    missing_stretch: Option<String>,
     /// Drive only this many metres from the start.
     #[arg(long)]
     length: Option<f64>,
@@ -462,6 +466,7 @@ impl ScenarioArgs {
             damage_fraction: None,
             install_sd: None,
             move_landmark: Vec::new(),
+            missing_stretch: None,
             length: None,
             speed: None,
             rate: None,
@@ -497,6 +502,11 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
             .iter()
             .map(|t| parse_moved(t))
             .collect::<Result<_, _>>()?,
+        missing_stretch_m: a
+            .missing_stretch
+            .as_deref()
+            .map(parse_stretch)
+            .transpose()?,
         drive_length_m: a.length,
         speed_mps: a.speed,
         rate: a.rate.map(|r| match r {
@@ -527,6 +537,16 @@ fn progress_bar(label: &str, enabled: bool) -> Option<ProgressBar> {
     // Hidden for the first seconds: short runs never show a bar.
     bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     Some(bar)
+}
+
+/// `FROM_M,TO_M` of `--missing-stretch`.
+fn parse_stretch(text: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("--missing-stretch {text}: expected FROM_M,TO_M (e.g. 80,120)");
+    let (a, b) = text.split_once(',').ok_or_else(bad)?;
+    Ok([
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    ])
 }
 
 /// `INDEX,ALONG_M` of `--move-landmark`.

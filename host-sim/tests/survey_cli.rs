@@ -23,8 +23,9 @@ fn ok(out: &std::process::Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
-fn record(dir: &Path, extra: &[&str]) {
-    let rec = dir.to_str().unwrap();
+/// `host-sim run` on 200 m of `demo-200m` (seed 7, landmarks 3 cm off their marks) with
+/// `extra`; its standard output.
+fn drive(extra: &[&str]) -> String {
     let mut args = vec![
         "run",
         "--scenario",
@@ -34,11 +35,15 @@ fn record(dir: &Path, extra: &[&str]) {
         "--install-sd",
         "0.03",
         "--quiet",
-        "--record",
-        rec,
     ];
     args.extend_from_slice(extra);
-    ok(&host_sim(&args));
+    ok(&host_sim(&args))
+}
+
+fn record(dir: &Path, extra: &[&str]) {
+    let mut args = vec!["--record", dir.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    drive(&args);
 }
 
 fn survey(rec: &Path, out: &Path) -> serde_json::Value {
@@ -99,23 +104,12 @@ fn a_drive_past_misplaced_landmarks_surveys_them_closer_than_the_design() {
     assert!(r["position_rms_m"].as_f64().unwrap() < 0.03, "{r}");
     // And `run --map` drives the same tunnel localising against it: better than against
     // the design.
-    let run = |extra: &[&str]| -> f64 {
-        let mut args = vec![
-            "run",
-            "--scenario",
-            "demo-200m",
-            "--seed",
-            "7",
-            "--install-sd",
-            "0.03",
-            "--quiet",
-            "--json",
-        ];
-        args.extend_from_slice(extra);
-        let v: serde_json::Value = serde_json::from_str(&ok(&host_sim(&args))).unwrap();
+    let rms = |text: String| -> f64 {
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         v["position_rms_m"].as_f64().unwrap()
     };
-    let (with_design, with_survey) = (run(&[]), run(&["--map", map.to_str().unwrap()]));
+    let with_design = rms(drive(&["--json"]));
+    let with_survey = rms(drive(&["--json", "--map", map.to_str().unwrap()]));
     assert!(
         with_survey < with_design,
         "run --map: {with_survey} m against the design's {with_design} m"
@@ -338,4 +332,25 @@ fn an_odometry_gap_is_bridged_and_reported() {
     let j = survey(&rec, &out);
     assert!(!j["odometry_gaps"].as_array().unwrap().is_empty(), "{j}");
     check_damaged_survey(&j, "gaps in the odometry");
+}
+
+#[test]
+fn a_stretch_without_landmarks_is_reported_with_its_along_tunnel_uncertainty() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    // The design has them; the tunnel has none between chainage 80 m and 120 m.
+    record(&rec, &["--missing-stretch", "80,120"]);
+    let j = survey(&rec, &out);
+    let stretches = j["along_unobserved"].as_array().unwrap();
+    assert_eq!(stretches.len(), 1, "{stretches:?}");
+    let len = stretches[0]["to_m"].as_f64().unwrap() - stretches[0]["from_m"].as_f64().unwrap();
+    assert!((15.0..45.0).contains(&len), "{len} m");
+    let gone = j["landmarks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|l| l["state"] == "not-seen" && l["failed_fits"].as_u64().unwrap() > 0)
+        .count();
+    assert!(gone >= 6, "{gone} of the 8 in the stretch reported");
+    check_damaged_survey(&j, "without a landmark fix");
 }

@@ -139,6 +139,11 @@ pub struct LandmarkConfig {
     /// the true tunnel only, on top of the installation error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub moved: Vec<MovedLandmark>,
+    /// Every landmark with its centre in this chainage stretch `[from_m, to_m]` is missing
+    /// from the true tunnel (never installed, or torn off by a blast): a stretch without
+    /// landmarks that the design still has.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub missing_stretch_m: Option<[f64; 2]>,
 }
 
 /// One landmark moved along its wall in the true tunnel.
@@ -190,6 +195,7 @@ impl Default for LandmarkConfig {
             install_sd_m: 0.0,
             install_standoff_sd_m: 0.0,
             moved: Vec::new(),
+            missing_stretch_m: None,
         }
     }
 }
@@ -589,6 +595,12 @@ impl Scenario {
             "must lie in [0, 0.2] m",
         )?;
         check(
+            l.missing_stretch_m
+                .is_none_or(|[a, b]| a.is_finite() && b.is_finite() && a <= b),
+            "landmarks.missing_stretch_m",
+            "must be [from_m, to_m] with from_m <= to_m",
+        )?;
+        check(
             l.moved
                 .iter()
                 .all(|m| m.along_m.is_finite() && m.along_m.abs() <= 5.0),
@@ -873,6 +885,9 @@ impl Scenario {
             l.install_standoff_sd_m,
             &mut Pcg32::new(self.seed, 0x1257),
         );
+        if let Some([from, to]) = l.missing_stretch_m {
+            world.remove_landmarks_between(from, to);
+        }
         for m in &l.moved {
             let count = world.placements().len();
             if !world.move_landmark(m.index, m.along_m) {

@@ -26,6 +26,8 @@ pub struct Overrides {
     pub install_sd_m: Option<f64>,
     /// Landmarks moved after the map was made (added to the scenario's).
     pub moved: Vec<super::MovedLandmark>,
+    /// A chainage stretch `[from_m, to_m]` without landmarks in the true tunnel.
+    pub missing_stretch_m: Option<[f64; 2]>,
     /// Length of the drive from its start, metres.
     pub drive_length_m: Option<f64>,
     /// Cruise speed, m/s.
@@ -68,6 +70,9 @@ impl Overrides {
             s.landmarks.install_sd_m = sd;
         }
         s.landmarks.moved.extend_from_slice(&self.moved);
+        if let Some(st) = self.missing_stretch_m {
+            s.landmarks.missing_stretch_m = Some(st);
+        }
         if let Some(len) = self.drive_length_m {
             if !(len.is_finite() && len > 0.0) {
                 return Err(ScenarioError::Invalid {

@@ -241,21 +241,12 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
             );
         }
     }
-    if !s.along_unobserved.is_empty() {
-        let _ = writeln!(
-            o,
-            "\nstretches without a landmark (along-tunnel extent from the odometry alone, ±{:.2} m in all):",
-            s.along_unobserved_sd_m
-        );
-        for st in &s.along_unobserved {
-            let _ = writeln!(
-                o,
-                "  {:8.1} – {:8.1} m driven, from ({:.1}, {:.1})",
-                st.from_m, st.to_m, st.at.0, st.at.1
-            );
-        }
-    }
+    let without_landmark = format!(
+        "stretches without a landmark (along-tunnel extent from the odometry alone, ±{:.2} m in all)",
+        s.along_unobserved_sd_m
+    );
     for (title, list) in [
+        (without_landmark.as_str(), &s.along_unobserved),
         ("steps across gaps in the odometry log", &s.odometry_gaps),
         ("stretches without scans", &s.scan_gaps),
     ] {

@@ -137,6 +137,17 @@ impl World {
         self.grid = SegmentGrid::new(self.true_segments(), GRID_CELL_M);
     }
 
+    /// Makes every landmark whose centre lies in chainage `[from_m, to_m]` missing from the
+    /// true tunnel (the design keeps them).
+    pub fn remove_landmarks_between(&mut self, from_m: f64, to_m: f64) {
+        for p in &mut self.placements {
+            if (from_m..=to_m).contains(&p.s_m) {
+                p.condition = Condition::Missing;
+            }
+        }
+        self.grid = SegmentGrid::new(self.true_segments(), GRID_CELL_M);
+    }
+
     /// Moves landmark `index` by `along_m` along its wall in the true tunnel (the design
     /// keeps its mark); false when there is no such landmark.
     pub fn move_landmark(&mut self, index: usize, along_m: f64) -> bool {
