@@ -48,6 +48,8 @@ pub struct SurveyJson<'a> {
     pub odometry_gaps: &'a [Stretch],
     /// Stretches without scans.
     pub scan_gaps: &'a [Stretch],
+    /// Keyframe steps the solution contradicts.
+    pub inconsistent_steps: &'a [Stretch],
     /// Wall stretches interpolated: `(wall, from s m, to s m)`.
     pub unsurveyed_walls: &'a [(&'static str, f64, f64)],
     /// Landmark-like returns no prior landmark explains.
@@ -94,6 +96,7 @@ pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
         along_unobserved_sd_m: s.along_unobserved_sd_m,
         odometry_gaps: &s.odometry_gaps,
         scan_gaps: &s.scan_gaps,
+        inconsistent_steps: &s.inconsistent_steps,
         unsurveyed_walls: &s.unsurveyed_walls,
         unexplained: &s.unexplained,
         against_truth: truth,
@@ -249,6 +252,10 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
         (without_landmark.as_str(), &s.along_unobserved),
         ("steps across gaps in the odometry log", &s.odometry_gaps),
         ("stretches without scans", &s.scan_gaps),
+        (
+            "keyframe steps the solution contradicts",
+            &s.inconsistent_steps,
+        ),
     ] {
         if !list.is_empty() {
             let _ = writeln!(o, "\n{title}:");
