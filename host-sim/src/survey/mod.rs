@@ -797,15 +797,67 @@ fn cluster_unexplained(seen: &[observations::Seen]) -> Vec<Unexplained> {
             }
         }
     }
-    let mut out: Vec<Unexplained> = cells
-        .values()
-        .filter(|c| c.3 >= 10)
-        .map(|c| Unexplained {
-            x_m: c.0 / c.2 as f64,
-            y_m: c.1 / c.2 as f64,
-            keyframes: c.3,
-        })
-        .collect();
+    // Neighbouring cells are one place (a landmark straddles a cell boundary): joined
+    // across their 8-neighbourhood; a place counts the most keyframes any of its cells saw.
+    let mut out: Vec<Unexplained> = Vec::new();
+    let mut done: std::collections::HashSet<(i64, i64)> = std::collections::HashSet::new();
+    for &start in cells.keys() {
+        if !done.insert(start) {
+            continue;
+        }
+        let (mut sx, mut sy, mut n, mut keyframes) = (0.0, 0.0, 0usize, 0usize);
+        let mut stack = vec![start];
+        while let Some((i, j)) = stack.pop() {
+            if let Some(c) = cells.get(&(i, j)) {
+                (sx, sy, n, keyframes) = (sx + c.0, sy + c.1, n + c.2, keyframes.max(c.3));
+            }
+            for (di, dj) in [
+                (-1, -1),
+                (-1, 0),
+                (-1, 1),
+                (0, -1),
+                (0, 1),
+                (1, -1),
+                (1, 0),
+                (1, 1),
+            ] {
+                let q = (i + di, j + dj);
+                if cells.contains_key(&q) && done.insert(q) {
+                    stack.push(q);
+                }
+            }
+        }
+        if keyframes >= 10 {
+            out.push(Unexplained {
+                x_m: sx / n as f64,
+                y_m: sy / n as f64,
+                keyframes,
+            });
+        }
+    }
     out.sort_by(|a, b| a.x_m.total_cmp(&b.x_m).then(a.y_m.total_cmp(&b.y_m)));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn returns_straddling_a_cell_boundary_are_one_place_and_rare_ones_none() {
+        let seen: Vec<observations::Seen> = (0..12)
+            .map(|k| observations::Seen {
+                // One landmark across the 0.5 m cell boundary; a stray return seen once.
+                unexplained: if k == 0 {
+                    vec![(0.45, 2.2), (0.55, 2.2), (30.0, -2.2)]
+                } else {
+                    vec![(0.45, 2.2), (0.55, 2.2)]
+                },
+                ..Default::default()
+            })
+            .collect();
+        let places = cluster_unexplained(&seen);
+        assert_eq!(places.len(), 1, "{places:?}");
+        assert!((places[0].x_m - 0.5).abs() < 1e-9 && places[0].keyframes == 12);
+    }
 }
