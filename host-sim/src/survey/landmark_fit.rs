@@ -113,15 +113,20 @@ impl FitModel {
     /// Whether a point given in the landmark frame may belong to this landmark or its wall
     /// runs (a box around the model, 10 cm behind the wall to 10 cm past the tip).
     pub fn covers(&self, p: (f64, f64)) -> bool {
-        let v = p.1 * self.inward_sign;
-        p.0.abs() <= self.reach_along_m && v >= -0.1 && v <= self.height_m + 0.1
+        self.within(p, self.reach_along_m)
     }
 
     /// Whether a point given in the landmark frame lies on the landmark's footprint (its
     /// width, 10 cm behind the wall to 10 cm past the tip): not wall.
     pub fn covers_landmark(&self, p: (f64, f64)) -> bool {
+        self.within(p, self.half_width_m)
+    }
+
+    /// Within `half_along_m` of the frame's origin along the wall, and from 10 cm behind
+    /// the wall to 10 cm past the tip.
+    fn within(&self, p: (f64, f64), half_along_m: f64) -> bool {
         let v = p.1 * self.inward_sign;
-        p.0.abs() <= self.half_width_m && v >= -0.1 && v <= self.height_m + 0.1
+        p.0.abs() <= half_along_m && v >= -0.1 && v <= self.height_m + 0.1
     }
 
     /// The nearest point of the model to `p` and whether it lies on the wall runs.

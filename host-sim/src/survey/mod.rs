@@ -511,7 +511,7 @@ pub fn survey(
         else {
             continue;
         };
-        if s.chi2(a, b) > INCONSISTENT_CHI2 && kfs.get(s.to).is_some() {
+        if s.chi2(a, b) > INCONSISTENT_CHI2 {
             inconsistent_steps.push(Stretch {
                 from_m: driven[s.from],
                 to_m: driven[s.to],
