@@ -97,6 +97,12 @@ pub enum MapError {
         /// The first four bytes found.
         found: [u8; 4],
     },
+    /// The bytes are not a map flash image (magic `LCMI`): a map file (`LCMP`) must be
+    /// converted first (`host-sim export-map --format image`), anything else is not a map.
+    NotAnImage {
+        /// The first four bytes found.
+        found: [u8; 4],
+    },
     /// The file's format version is not one this build reads.
     UnsupportedVersion {
         /// Version in the file.
@@ -236,6 +242,16 @@ impl fmt::Display for MapError {
             MapError::BadMagic { found } => {
                 write!(f, "not a map file: magic {found:02x?}, expected \"LCMP\"")
             }
+            MapError::NotAnImage { found } if *found == super::MAP_MAGIC => write!(
+                f,
+                "this is a map file (\"LCMP\"), not a map flash image (\"LCMI\"): \
+                 write the image with `host-sim export-map --format image` and flash that"
+            ),
+            MapError::NotAnImage { found } => write!(
+                f,
+                "not a map flash image: magic {found:02x?}, expected \"LCMI\"; \
+                 write one with `host-sim export-map --format image`"
+            ),
             MapError::UnsupportedVersion { found, supported } => write!(
                 f,
                 "map format version {found} not supported (this build reads {supported}); \

@@ -46,7 +46,7 @@ pub const MAP_HEADER_LEN: usize = 16;
 
 /// What may follow the map's payload.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum After {
+pub(crate) enum After {
     /// Nothing: the bytes are one map file.
     Nothing,
     /// Flash padding: `0xFF` (erased) or `0x00` (zero-filled) bytes.
@@ -54,7 +54,7 @@ enum After {
 }
 
 impl After {
-    fn allows(self, byte: u8) -> bool {
+    pub(crate) fn allows(self, byte: u8) -> bool {
         self == After::Padding && (byte == 0xFF || byte == 0x00)
     }
 }

@@ -13,6 +13,7 @@ use crate::geometry::{Point2, Segment};
 use crate::math;
 
 use super::error::{Capacity, GeometryError, MapError};
+use super::search::CellIndex;
 use super::MapSegment;
 
 /// Largest cell coordinate magnitude accepted (keeps ring/DDA arithmetic inside i32 and
@@ -31,8 +32,9 @@ pub(crate) struct Cell {
 }
 
 impl Cell {
+    /// The sort key of the index: packed i16 coordinates.
     #[inline]
-    fn key(self) -> u32 {
+    pub(crate) fn key(self) -> u32 {
         // i16 range is guaranteed by MAX_CELL_COORD checks at build and query time.
         (u32::from(self.ix as i16 as u16) << 16) | u32::from(self.iy as i16 as u16)
     }
@@ -219,9 +221,9 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
         };
     }
 
-    #[inline]
-    pub fn spec(&self) -> &CellSpec {
-        &self.spec
+    /// The sorted cell keys, each cell's end in the references, and the references.
+    pub fn parts(&self) -> (&[u32], &[u32], &[u16]) {
+        (&self.keys, &self.ends, &self.refs)
     }
 
     pub fn cell_count(&self) -> usize {
@@ -356,6 +358,34 @@ impl<const CELLS: usize, const REFS: usize> SparseGrid<CELLS, REFS> {
     }
 }
 
+/// A grid with the segments it indexes: the [`CellIndex`] the queries of a RAM map run on.
+pub(crate) struct GridView<'a, const CELLS: usize, const REFS: usize> {
+    pub grid: &'a SparseGrid<CELLS, REFS>,
+    pub segments: &'a [MapSegment],
+}
+
+impl<const CELLS: usize, const REFS: usize> CellIndex for GridView<'_, CELLS, REFS> {
+    #[inline]
+    fn spec(&self) -> CellSpec {
+        self.grid.spec
+    }
+
+    #[inline]
+    fn bounds(&self) -> Option<CellRect> {
+        self.grid.bounds()
+    }
+
+    #[inline]
+    fn for_each_ref(&self, c: Cell, f: impl FnMut(u16)) {
+        self.grid.cell_refs(c).iter().copied().for_each(f);
+    }
+
+    #[inline]
+    fn segment(&self, i: u16) -> Option<MapSegment> {
+        self.segments.get(usize::from(i)).copied()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -365,13 +395,13 @@ mod tests {
         let g: SparseGrid<16, 64> = SparseGrid::new(1.0);
         let seg = Segment::new(Point2::new(0.5, 0.5), Point2::new(3.5, 1.5));
         let mut cells: heapless::Vec<Cell, 32> = heapless::Vec::new();
-        g.spec().for_each_cell_of_segment(&seg, &mut |c| {
+        g.spec.for_each_cell_of_segment(&seg, &mut |c| {
             cells.push(c).unwrap();
             true
         });
         for i in 0..=100 {
             let p = Point2::new(0.5 + 0.03 * i as f32, 0.5 + 0.01 * i as f32);
-            let c = g.spec().cell_of(p).unwrap();
+            let c = g.spec.cell_of(p).unwrap();
             assert!(cells.contains(&c), "{p:?} in {c:?} missing");
         }
         for (i, a) in cells.iter().enumerate() {

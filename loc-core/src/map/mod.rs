@@ -8,10 +8,13 @@
 //! - [`MapError`]: what goes wrong building, loading or saving a map.
 //! - `file`: the versioned, checksummed postcard file format
 //!   ([`StoredMap::to_slice`], [`StoredMap::from_bytes`]).
+//! - [`MapImage`]: the flash image — segments, index and landmarks laid out to be queried
+//!   in place, so a controller's RAM does not grow with the map ([`StoredMap::write_image`]).
 
 mod error;
 mod file;
 mod grid;
+mod image;
 mod query;
 mod search;
 mod stored;
@@ -19,6 +22,7 @@ mod wall;
 
 pub use error::{Capacity, GeometryError, MapError};
 pub use file::{MAP_FORMAT_VERSION, MAP_HEADER_LEN, MAP_MAGIC};
+pub use image::{MapImage, IMAGE_FORMAT_VERSION, IMAGE_HEADER_LEN, IMAGE_MAGIC};
 pub use query::{FeatureKind, MapHit, MapQuery, RayHit};
 pub use stored::{
     HostMap, IndexStats, LandmarkPlacement, MapBuilder, MapLandmark, MapSegment, StoredMap,

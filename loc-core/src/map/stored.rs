@@ -5,7 +5,8 @@ use crate::geometry::{Point2, Segment};
 use crate::landmark::{Genome, LandmarkModel, LandmarkShape, WallFrame};
 
 use super::error::{Capacity, GeometryError, MapError};
-use super::grid::SparseGrid;
+use super::grid::{GridView, SparseGrid};
+use super::search;
 use super::wall::{frame_at, polyline_length_m, WallSide};
 use super::{FeatureKind, MapHit, MapQuery, RayHit};
 
@@ -403,7 +404,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
 
     /// Length of one wall's polyline, metres.
     pub fn wall_length_m(&self, side: WallSide) -> f32 {
-        polyline_length_m(self.wall_segments(side).iter().map(|s| &s.segment))
+        polyline_length_m(self.wall_segments(side).iter().map(|s| s.segment))
     }
 
     /// The point, unit tangent and inward normal at arc length `s_m` along a wall (world
@@ -411,7 +412,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     pub fn wall_frame_at(&self, side: WallSide, s_m: f32) -> Option<WallFrame> {
         frame_at(
             side,
-            self.wall_segments(side).iter().map(|s| &s.segment),
+            self.wall_segments(side).iter().map(|s| s.segment),
             s_m,
         )
     }
@@ -434,6 +435,20 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     pub fn is_empty(&self) -> bool {
         self.segments.is_empty()
     }
+
+    /// The spatial index's arrays (for the flash image).
+    pub(crate) fn index_parts(&self) -> (&[u32], &[u32], &[u16]) {
+        self.grid.parts()
+    }
+
+    /// The index with its segments, as the queries see it.
+    #[inline]
+    fn view(&self) -> GridView<'_, CELLS, CELL_REFS> {
+        GridView {
+            grid: &self.grid,
+            segments: &self.segments,
+        }
+    }
 }
 
 /// Queries go through the sparse grid: `nearest` searches rings of cells outwards from the
@@ -445,12 +460,11 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     MapQuery for StoredMap<SEGMENTS, LANDMARKS, CELLS, CELL_REFS>
 {
     fn nearest(&self, p: Point2, max_distance_m: f32) -> Option<MapHit> {
-        self.grid.nearest(&self.segments, p, max_distance_m)
+        search::nearest(&self.view(), p, max_distance_m)
     }
 
     fn raycast(&self, origin: Point2, angle_rad: f32, max_range_m: f32) -> Option<RayHit> {
-        self.grid
-            .raycast(&self.segments, origin, angle_rad, max_range_m)
+        search::raycast(&self.view(), origin, angle_rad, max_range_m)
     }
 
     fn for_each_landmark_segment_near(
@@ -459,8 +473,8 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         radius_m: f32,
         f: &mut dyn FnMut(u16, Segment),
     ) {
-        self.grid.for_each_segment_near(
-            &self.segments,
+        search::for_each_segment_near(
+            &self.view(),
             center,
             radius_m,
             &|ms| ms.kind.is_landmark(),

@@ -59,17 +59,17 @@ impl WallSide {
 }
 
 /// Length of a wall polyline given as consecutive segments, metres.
-pub(crate) fn polyline_length_m<'a>(segments: impl Iterator<Item = &'a Segment>) -> f32 {
-    segments.map(Segment::length).sum()
+pub(crate) fn polyline_length_m(segments: impl Iterator<Item = Segment>) -> f32 {
+    segments.map(|s| s.length()).sum()
 }
 
 /// The frame at arc length `s_m` along a wall made of consecutive `segments`: the point on
 /// the wall and the unit tangent of the (non-degenerate) segment holding it. `None` when
 /// `s_m` is not finite, off the wall (beyond a 1 mm tolerance at the ends), or the wall has
 /// no length.
-pub(crate) fn frame_at<'a>(
+pub(crate) fn frame_at(
     side: WallSide,
-    segments: impl Iterator<Item = &'a Segment>,
+    segments: impl Iterator<Item = Segment>,
     s_m: f32,
 ) -> Option<WallFrame> {
     const END_TOL_M: f32 = 1e-3;
@@ -85,10 +85,10 @@ pub(crate) fn frame_at<'a>(
         }
         if s_m <= walked + len {
             let t = ((s_m - walked) / len).clamp(0.0, 1.0);
-            return Some(frame_on(side, seg, t, len));
+            return Some(frame_on(side, &seg, t, len));
         }
         walked += len;
-        last = Some((*seg, len));
+        last = Some((seg, len));
     }
     // Past the end: accept a rounding overshoot at the last point.
     let (seg, len) = last?;
@@ -115,16 +115,16 @@ mod tests {
             Segment::new(Point2::new(3.0, 0.0), Point2::new(3.0, 0.0)), // degenerate
             Segment::new(Point2::new(3.0, 0.0), Point2::new(3.0, 4.0)),
         ];
-        assert_eq!(polyline_length_m(segs.iter()), 7.0);
-        let f = frame_at(WallSide::Right, segs.iter(), 5.0).unwrap();
+        assert_eq!(polyline_length_m(segs.iter().copied()), 7.0);
+        let f = frame_at(WallSide::Right, segs.iter().copied(), 5.0).unwrap();
         assert_eq!(f.anchor, Point2::new(3.0, 2.0));
         assert_eq!(f.tangent, Point2::new(0.0, 1.0));
         assert_eq!(f.inward_normal, Point2::new(-1.0, 0.0));
-        let l = frame_at(WallSide::Left, segs.iter(), 1.0).unwrap();
+        let l = frame_at(WallSide::Left, segs.iter().copied(), 1.0).unwrap();
         assert_eq!(l.inward_normal, Point2::new(0.0, -1.0));
-        assert!(frame_at(WallSide::Left, segs.iter(), 7.0005).is_some());
-        assert!(frame_at(WallSide::Left, segs.iter(), 7.1).is_none());
-        assert!(frame_at(WallSide::Left, segs.iter(), f32::NAN).is_none());
-        assert!(frame_at(WallSide::Left, segs.iter(), -1.0).is_none());
+        assert!(frame_at(WallSide::Left, segs.iter().copied(), 7.0005).is_some());
+        assert!(frame_at(WallSide::Left, segs.iter().copied(), 7.1).is_none());
+        assert!(frame_at(WallSide::Left, segs.iter().copied(), f32::NAN).is_none());
+        assert!(frame_at(WallSide::Left, segs.iter().copied(), -1.0).is_none());
     }
 }
