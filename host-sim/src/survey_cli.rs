@@ -7,6 +7,7 @@ use clap::Args;
 use host_sim::record::files;
 use host_sim::replay::ReplaySources;
 use host_sim::stored_map;
+use host_sim::survey::graph::Solver;
 use host_sim::survey::report::{self, AgainstTruth};
 use host_sim::survey::{self, score, Anchor, Stage, SurveyOptions};
 
@@ -55,6 +56,11 @@ pub struct SurveyArgs {
     /// Fit landmarks within this range of the vehicle, metres.
     #[arg(long, default_value_t = 20.0)]
     pub range: f64,
+    /// Back end of the joint solve: factrs (Levenberg–Marquardt, faer's sparse Cholesky),
+    /// apex (apex-solver) or own (the survey's own Levenberg–Marquardt on nalgebra-sparse).
+    /// All three solve the same problem; see the README's "Solver" for their figures.
+    #[arg(long, default_value = "factrs", value_parser = parse_solver)]
+    pub solver: Solver,
     /// Print survey.json instead of the report.
     #[arg(long)]
     pub json: bool,
@@ -80,6 +86,11 @@ fn parse_anchor(text: &str) -> Result<Anchor, String> {
         return Err(format!("--anchor `{text}`: the 1σ must be positive"));
     }
     Ok(a)
+}
+
+fn parse_solver(text: &str) -> Result<Solver, String> {
+    text.parse()
+        .map_err(|e: host_sim::survey::graph::UnknownSolver| e.to_string())
 }
 
 fn sources(a: &SurveyArgs) -> Result<ReplaySources, String> {
@@ -130,6 +141,7 @@ pub fn cmd_survey(a: &SurveyArgs) -> Result<(), String> {
             .iter()
             .map(|s| parse_anchor(s))
             .collect::<Result<_, _>>()?,
+        solver: a.solver,
         ..SurveyOptions::default()
     };
     let truth_path = a

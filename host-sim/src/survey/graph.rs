@@ -1,34 +1,32 @@
 //! The survey's joint estimate: every keyframe pose and every landmark pose of the drive in
-//! one sparse nonlinear least-squares problem, solved with `factrs` (Levenberg–Marquardt over
-//! SE(2), faer's sparse Cholesky), and each landmark's marginal covariance from the same
-//! linearisation.
+//! one sparse nonlinear least-squares problem ([`Problem`]), solved by one of three back ends
+//! ([`Solver`]: `factrs`, `apex-solver`, or the survey's own Levenberg–Marquardt on
+//! nalgebra-sparse), and each landmark's marginal covariance from the same linearisation.
 //!
-//! Factors (all SE(2) between or prior factors; covariances in factrs' tangent order
-//! `(θ rad, x m, y m)`, right perturbation):
+//! Factors (all SE(2) between or prior factors; covariances in the tangent order
+//! `(θ rad, x m, y m)`, right perturbation — factrs' order, which every back end reports in):
 //! - keyframe → next keyframe: the odometry, with its across-tunnel offset and heading change
-//!   replaced by the walls' where both keyframes see a wall ([`super::keyframes`]);
+//!   replaced by the walls' where both keyframes see a wall ([`super::keyframes`]), with a
+//!   Huber kernel;
 //! - keyframe → landmark: one landmark fitted in one scan ([`super::landmark_fit`]), with a
 //!   Huber kernel (a fit spoilt by a person beside the landmark must not bend the map);
 //! - landmark priors: the design's marks with the installation tolerance, anchors surveyed
-//!   into mine coordinates, or the first landmark held where it was first seen.
+//!   into mine coordinates, or the first landmark held where it was first seen;
+//! - a loose prior ([`LOOSE_PRIOR_SD`]) on the first keyframe.
+//!
+//! Every back end minimises the same cost, `Σ ρ(d²)` with `d² = rᵀ Σ⁻¹ r` the squared
+//! Mahalanobis length of a factor's residual, `ρ(d²) = d²/2` for priors and the Huber loss
+//! ([`HUBER_K`]) for the between factors, and reports the marginals of `H = Jᵀ W J` at the
+//! solution (`W` the Huber IRLS weights): the covariances agree to well within 1 %.
 
-use factrs::containers::{FactorBuilder, Graph, Values, ValuesOrder};
-use factrs::core::{BetweenResidual, GaussianNoise, Huber, LevenMarquardt, PriorResidual};
-use factrs::linalg::{DiffResult, Matrix3 as FMatrix3};
-use factrs::optimizers::{LevenParams, OptError, Optimizer};
-use factrs::variables::SE2;
+use std::fmt;
+use std::str::FromStr;
+
 use nalgebra::Matrix3;
+use serde::Serialize;
 
+use super::{solver_apex, solver_factrs, solver_own};
 use crate::vehicle::SimPose;
-
-/// factrs' typed keys: `X(k)` keyframe k, `L(j)` landmark j.
-mod keys {
-    use factrs::assign_symbols;
-    use factrs::variables::SE2;
-
-    assign_symbols!(X: SE2; L: SE2);
-}
-use keys::{L, X};
 
 /// A relative pose measured between two variables: `to` in `from`'s frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,10 +89,79 @@ pub struct Solution {
     /// Each landmark's marginal covariance, `(θ, x, y)` right perturbation (in the
     /// landmark's own frame: `x` along its wall).
     pub landmark_covariance: Vec<Matrix3<f64>>,
-    /// Total weighted squared error before and after.
+    /// Total cost `Σ ρ(d²)` (dimensionless: squared Mahalanobis lengths) before the solve.
     pub error_before: f64,
-    /// After the solve.
+    /// The same after the solve.
     pub error_after: f64,
+    /// Levenberg–Marquardt iterations taken (accepted steps and the final rejected one
+    /// counted as the back end counts them; at most the `max_iterations` given).
+    pub iterations: usize,
+}
+
+/// Which back end solves the joint problem (`host-sim survey --solver NAME`). All three
+/// minimise the same cost and report the same marginals; they differ in speed, memory and
+/// dependencies (README, "Solver").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Solver {
+    /// `factrs` 0.3: Levenberg–Marquardt over SE(2) on faer's sparse Cholesky (automatic
+    /// differentiation); marginals from its linearisation with faer. The default.
+    #[default]
+    Factrs,
+    /// `apex-solver` 1.5: Levenberg–Marquardt over SE(2) (analytic Jacobians) on faer's
+    /// sparse Cholesky; marginals from its Jacobian at the solution with faer.
+    Apex,
+    /// The survey's own Gauss–Newton/Levenberg–Marquardt ([`super::solver_own`]): analytic
+    /// SE(2) Jacobians, Huber by IRLS weights, nalgebra-sparse's Cholesky in the keyframe-chain
+    /// order with each landmark after the last keyframe that sees it.
+    Own,
+}
+
+impl Solver {
+    /// Every back end, the default first.
+    pub const ALL: [Solver; 3] = [Solver::Factrs, Solver::Apex, Solver::Own];
+
+    /// The name on the command line and in `survey.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Solver::Factrs => "factrs",
+            Solver::Apex => "apex",
+            Solver::Own => "own",
+        }
+    }
+}
+
+impl fmt::Display for Solver {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A solver name that is none of [`Solver::ALL`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UnknownSolver(pub String);
+
+impl fmt::Display for UnknownSolver {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "unknown solver `{}`: give factrs (the default), apex or own",
+            self.0
+        )
+    }
+}
+
+impl std::error::Error for UnknownSolver {}
+
+impl FromStr for Solver {
+    type Err = UnknownSolver;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Solver::ALL
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| UnknownSolver(s.to_string()))
+    }
 }
 
 /// Why the joint estimate failed.
@@ -111,8 +178,8 @@ pub enum GraphError {
     Solver(String),
 }
 
-impl std::fmt::Display for GraphError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl fmt::Display for GraphError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             GraphError::BadCovariance { what } => {
                 write!(f, "{what}: covariance not positive definite")
@@ -124,159 +191,43 @@ impl std::fmt::Display for GraphError {
 
 impl std::error::Error for GraphError {}
 
-fn se2(p: SimPose) -> SE2 {
-    SE2::new(p.theta_rad, p.x_m, p.y_m)
-}
+/// A keyframe far from everything keeps the system well posed: a 10 km prior on the first
+/// keyframe's position and heading (no pull on anything the scans determine), metres and
+/// radians.
+pub const LOOSE_PRIOR_SD: f64 = 1e4;
 
-fn pose(p: &SE2) -> SimPose {
-    SimPose::new(p.x(), p.y(), p.theta())
-}
+/// The Huber kernel's threshold on a factor's Mahalanobis length `d` (dimensionless):
+/// quadratic below, linear above; factrs' default, 95 % efficiency on Gaussian noise.
+pub const HUBER_K: f64 = 1.345;
 
-fn noise(cov: &Matrix3<f64>, what: impl Fn() -> String) -> Result<GaussianNoise<3>, GraphError> {
-    let m = FMatrix3::from_fn(|r, c| cov[(r, c)]);
-    GaussianNoise::<3>::from_matrix_cov(m.as_view())
+/// Landmarks whose covariance columns are solved for at once by the faer back ends (a dense
+/// block of `n × 3·BATCH`: 25 000 unknowns × 96 columns is 19 MB).
+pub(super) const MARGINAL_BATCH: usize = 32;
+
+/// The information matrix `Σ⁻¹` of a factor's covariance, or why not.
+pub(super) fn information(
+    cov: &Matrix3<f64>,
+    what: impl Fn() -> String,
+) -> Result<Matrix3<f64>, GraphError> {
+    let symmetric = (cov + cov.transpose()) * 0.5;
+    symmetric
+        .cholesky()
+        .filter(|_| cov.iter().all(|v| v.is_finite()))
+        .map(|c| c.inverse())
         .ok_or_else(|| GraphError::BadCovariance { what: what() })
 }
 
-/// A keyframe far from everything keeps the system well posed: a 10 km prior on the first
-/// keyframe's position and heading (no pull on anything the scans determine).
-const LOOSE_PRIOR_SD: f64 = 1e4;
-
-/// Solves the problem (at most `max_iterations` Levenberg–Marquardt steps).
-pub fn solve(problem: &Problem, max_iterations: usize) -> Result<Solution, GraphError> {
-    let mut values = Values::new();
-    for (k, p) in problem.keyframes.iter().enumerate() {
-        values.insert(X(k as u32), se2(*p));
+/// Solves the problem with `solver` (at most `max_iterations` Levenberg–Marquardt steps).
+pub fn solve(
+    problem: &Problem,
+    solver: Solver,
+    max_iterations: usize,
+) -> Result<Solution, GraphError> {
+    match solver {
+        Solver::Factrs => solver_factrs::solve(problem, max_iterations),
+        Solver::Apex => solver_apex::solve(problem, max_iterations),
+        Solver::Own => solver_own::solve(problem, max_iterations),
     }
-    for (j, p) in problem.landmarks.iter().enumerate() {
-        values.insert(L(j as u32), se2(*p));
-    }
-    let mut graph = Graph::new();
-    if let Some(first) = problem.keyframes.first() {
-        let n = GaussianNoise::<3>::from_scalar_sigma(LOOSE_PRIOR_SD);
-        graph.add_factor(
-            FactorBuilder::new1(PriorResidual::new(se2(*first)), X(0))
-                .noise(n)
-                .build(),
-        );
-    }
-    for s in &problem.steps {
-        let n = noise(&s.covariance, || format!("step {} → {}", s.from, s.to))?;
-        graph.add_factor(
-            FactorBuilder::new2(
-                BetweenResidual::new(se2(s.z)),
-                X(s.from as u32),
-                X(s.to as u32),
-            )
-            .noise(n)
-            .robust(Huber::default())
-            .build(),
-        );
-    }
-    for o in &problem.observations {
-        let n = noise(&o.covariance, || {
-            format!("landmark {} seen from keyframe {}", o.to, o.from)
-        })?;
-        graph.add_factor(
-            FactorBuilder::new2(
-                BetweenResidual::new(se2(o.z)),
-                X(o.from as u32),
-                L(o.to as u32),
-            )
-            .noise(n)
-            .robust(Huber::default())
-            .build(),
-        );
-    }
-    for p in &problem.priors {
-        let n = noise(&p.covariance, || {
-            format!("prior of landmark {}", p.landmark)
-        })?;
-        graph.add_factor(
-            FactorBuilder::new1(PriorResidual::new(se2(p.pose)), L(p.landmark as u32))
-                .noise(n)
-                .build(),
-        );
-    }
-    let error_before = graph.error(&values);
-    let mut params = LevenParams::default();
-    params.base.max_iterations = max_iterations;
-    let mut opt = LevenMarquardt::new(params, graph);
-    let values = match opt.optimize(values) {
-        Ok(v) | Err(OptError::MaxIterations(v)) => v,
-        Err(e) => return Err(GraphError::Solver(format!("{e:?}"))),
-    };
-    let error_after = opt.graph().error(&values);
-    let keyframes = (0..problem.keyframes.len())
-        .map(|k| values.get::<_, SE2>(X(k as u32)).map(pose))
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| GraphError::Solver("a keyframe went missing".into()))?;
-    let landmarks = (0..problem.landmarks.len())
-        .map(|j| values.get::<_, SE2>(L(j as u32)).map(pose))
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| GraphError::Solver("a landmark went missing".into()))?;
-    let landmark_covariance = marginals(opt.graph(), &values, problem.landmarks.len())?;
-    Ok(Solution {
-        keyframes,
-        landmarks,
-        landmark_covariance,
-        error_before,
-        error_after,
-    })
-}
-
-/// Landmarks whose covariance columns are solved for at once (a dense block of
-/// `n × 3·BATCH`: 25 000 unknowns × 96 columns is 19 MB).
-const MARGINAL_BATCH: usize = 32;
-
-/// Each landmark's 3×3 block of the inverse of `JᵀJ` at the solution.
-fn marginals(
-    graph: &Graph,
-    values: &Values,
-    landmarks: usize,
-) -> Result<Vec<Matrix3<f64>>, GraphError> {
-    use faer::linalg::solvers::Solve;
-    if landmarks == 0 {
-        // Nothing to report (and a chain of keyframes held by a 10 km prior alone is too
-        // ill-conditioned to factor).
-        return Ok(Vec::new());
-    }
-    let order = ValuesOrder::from_values(values);
-    let graph_order = graph.sparsity_pattern(order.clone());
-    let DiffResult { diff: j, .. } = graph.linearize(values).residual_jacobian(&graph_order);
-    let jt = j
-        .as_ref()
-        .transpose()
-        .to_col_major()
-        .map_err(|e| GraphError::Solver(format!("{e:?}")))?;
-    let h = &jt * j.as_ref();
-    let llt = faer::sparse::linalg::solvers::Llt::try_new_with_symbolic(
-        faer::sparse::linalg::solvers::SymbolicLlt::try_new(h.symbolic(), faer::Side::Lower)
-            .map_err(|e| GraphError::Solver(format!("{e:?}")))?,
-        h.as_ref(),
-        faer::Side::Lower,
-    )
-    .map_err(|e| GraphError::Solver(format!("the information matrix is singular: {e:?}")))?;
-    let index = |j: usize| order.get(L(j as u32)).map(|i| i.idx);
-    let mut out = Vec::with_capacity(landmarks);
-    let ids: Vec<usize> = (0..landmarks).collect();
-    for batch in ids.chunks(MARGINAL_BATCH) {
-        let starts: Vec<usize> = batch
-            .iter()
-            .map(|&j| index(j).ok_or_else(|| GraphError::Solver("landmark not ordered".into())))
-            .collect::<Result<_, _>>()?;
-        let mut rhs = faer::Mat::<f64>::zeros(order.dim(), 3 * batch.len());
-        for (c, &s) in starts.iter().enumerate() {
-            for d in 0..3 {
-                rhs[(s + d, 3 * c + d)] = 1.0;
-            }
-        }
-        let x = llt.solve(&rhs);
-        for (c, &s) in starts.iter().enumerate() {
-            out.push(Matrix3::from_fn(|r, q| x[(s + r, 3 * c + q)]));
-        }
-    }
-    Ok(out)
 }
 
 #[cfg(test)]
@@ -298,14 +249,27 @@ mod tests {
         assert!((c - 9.0).abs() < 0.01, "{c}");
     }
 
+    #[test]
+    fn solver_names_round_trip_and_unknown_names_say_what_to_give() {
+        for s in Solver::ALL {
+            assert_eq!(s.name().parse::<Solver>(), Ok(s));
+        }
+        assert_eq!(" Apex ".parse::<Solver>(), Ok(Solver::Apex));
+        let e = "ceres".parse::<Solver>().unwrap_err().to_string();
+        assert!(
+            e.contains("ceres") && e.contains("factrs") && e.contains("own"),
+            "{e}"
+        );
+        assert_eq!(Solver::default(), Solver::Factrs);
+    }
+
     fn diag(t: f64, x: f64, y: f64) -> Matrix3<f64> {
         Matrix3::from_diagonal(&nalgebra::Vector3::new(t * t, x * x, y * y))
     }
 
     /// A straight drive past two landmarks, each seen from every keyframe, the odometry 5 %
     /// short: the landmark observations pull the trajectory and the landmarks into place.
-    #[test]
-    fn landmarks_seen_from_a_drive_are_placed_and_their_uncertainty_reported() {
+    fn drive_past_two_landmarks(solver: Solver) {
         let truth_l = [SimPose::new(5.0, 2.5, 0.0), SimPose::new(12.0, -2.5, 0.0)];
         let truth_x: Vec<SimPose> = (0..30)
             .map(|k| SimPose::new(k as f64 * 0.5, 0.0, 0.0))
@@ -345,19 +309,145 @@ mod tests {
             pose: truth_l[0],
             covariance: diag(0.001, 0.002, 0.002),
         });
-        let s = solve(&p, 50).unwrap();
-        assert!(s.error_after < s.error_before * 1e-3);
+        let s = solve(&p, solver, 50).unwrap();
+        assert!(s.error_after < s.error_before * 1e-3, "{solver}");
+        assert!(s.iterations >= 1 && s.iterations <= 50, "{solver}");
         let e = truth_l[1].between(s.landmarks[1]);
-        assert!(e.x_m.abs() < 1e-3 && e.y_m.abs() < 1e-3, "{e:?}");
+        assert!(e.x_m.abs() < 1e-3 && e.y_m.abs() < 1e-3, "{solver}: {e:?}");
         let last = truth_x[29].between(s.keyframes[29]);
-        assert!(last.x_m.abs() < 2e-3, "{last:?}");
+        assert!(last.x_m.abs() < 2e-3, "{solver}: {last:?}");
         // The surveyed landmark is known to its prior, the other a little worse.
         let sd = |j: usize| s.landmark_covariance[j][(1, 1)].sqrt();
         assert!(
             sd(0) < 0.002 && sd(1) > sd(0) && sd(1) < 0.02,
-            "{} {}",
+            "{solver}: {} {}",
             sd(0),
             sd(1)
         );
+    }
+
+    #[test]
+    fn landmarks_seen_from_a_drive_are_placed_and_their_uncertainty_reported() {
+        for solver in Solver::ALL {
+            drive_past_two_landmarks(solver);
+        }
+    }
+
+    /// A small pseudo-random drive (xorshift, fixed seed): a curving chain of keyframes with
+    /// odometry and longer-baseline steps, landmarks on both walls seen from the keyframes
+    /// near them, two landmark priors; the measurements noisy, the start perturbed.
+    fn random_problem(seed: u64) -> Problem {
+        let mut state = seed;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let truth_x: Vec<SimPose> = (0..40)
+            .map(|k| {
+                let s = k as f64 * 0.5;
+                SimPose::new(s, 0.02 * s * s / 2.0, 0.02 * s)
+            })
+            .collect();
+        let truth_l: Vec<SimPose> = (0..6)
+            .map(|j| {
+                let s = 1.5 + j as f64 * 3.2;
+                let side = if j % 2 == 0 { 2.4 } else { -2.4 };
+                truth_x[0].compose(SimPose::new(s, 0.02 * s * s / 2.0 + side, 0.02 * s + 0.3))
+            })
+            .collect();
+        let mut noisy = |p: SimPose, sd_rad: f64, sd_m: f64| {
+            p.compose(SimPose::new(
+                sd_m * uniform(),
+                sd_m * uniform(),
+                sd_rad * uniform(),
+            ))
+        };
+        let mut p = Problem::default();
+        for k in 0..truth_x.len() {
+            for b in [1, 4] {
+                if k + b < truth_x.len() {
+                    let z = noisy(truth_x[k].between(truth_x[k + b]), 1e-4, 1e-4);
+                    p.steps.push(Relative {
+                        from: k,
+                        to: k + b,
+                        z,
+                        covariance: diag(2e-4, 0.01, 2e-3),
+                    });
+                }
+            }
+            for (j, l) in truth_l.iter().enumerate() {
+                if (truth_x[k].x_m - l.x_m).abs() < 8.0 {
+                    let z = noisy(truth_x[k].between(*l), 1e-4, 1e-4);
+                    p.observations.push(Relative {
+                        from: k,
+                        to: j,
+                        z,
+                        covariance: diag(0.01, 0.004, 0.003),
+                    });
+                }
+            }
+        }
+        for j in [0, 5] {
+            p.priors.push(Prior {
+                landmark: j,
+                pose: truth_l[j],
+                covariance: diag(0.01, 0.005, 0.0025),
+            });
+        }
+        p.keyframes = truth_x.iter().map(|x| noisy(*x, 0.01, 0.05)).collect();
+        p.landmarks = truth_l.iter().map(|l| noisy(*l, 0.01, 0.05)).collect();
+        p
+    }
+
+    #[test]
+    fn the_three_back_ends_agree_on_a_small_random_problem() {
+        let p = random_problem(0x5eed_1234_abcd_0001);
+        let solutions: Vec<(Solver, Solution)> = Solver::ALL
+            .into_iter()
+            .map(|s| (s, solve(&p, s, 50).unwrap()))
+            .collect();
+        let (_, reference) = &solutions[0];
+        for (solver, s) in &solutions[1..] {
+            let poses = reference
+                .keyframes
+                .iter()
+                .zip(&s.keyframes)
+                .chain(reference.landmarks.iter().zip(&s.landmarks));
+            for (a, b) in poses {
+                let d = a.between(*b);
+                assert!(
+                    d.x_m.hypot(d.y_m) < 1e-6 && d.theta_rad.abs() < 1e-6,
+                    "{solver} against factrs: {d:?}"
+                );
+            }
+            for (j, (a, b)) in reference
+                .landmark_covariance
+                .iter()
+                .zip(&s.landmark_covariance)
+                .enumerate()
+            {
+                for r in 0..3 {
+                    let scale = (a[(r, r)] * b[(r, r)]).sqrt();
+                    for c in 0..3 {
+                        let tol = 0.01 * (a[(r, r)] * a[(c, c)]).sqrt();
+                        assert!(
+                            (a[(r, c)] - b[(r, c)]).abs() <= tol,
+                            "{solver} landmark {j} ({r}, {c}): {} against factrs' {} (σ² {scale})",
+                            b[(r, c)],
+                            a[(r, c)]
+                        );
+                    }
+                }
+            }
+            let rel = (s.error_after - reference.error_after).abs() / reference.error_after;
+            assert!(
+                rel < 1e-6,
+                "{solver}: cost {} against {}",
+                s.error_after,
+                reference.error_after
+            );
+        }
     }
 }

@@ -8,7 +8,8 @@
 //!    localiser, a keyframe every 0.25 m with the scan's points and loc-core's wall fits;
 //! 2. [`observations`]: each prior landmark in range fitted in each keyframe
 //!    ([`landmark_fit`]); [`steps`]: odometry and walls between consecutive keyframes;
-//! 3. [`graph`]: keyframes and landmarks solved together (factrs), each landmark's marginal
+//! 3. [`graph`]: keyframes and landmarks solved together (factrs by default; apex-solver or
+//!    the survey's own Levenberg–Marquardt on request, [`graph::Solver`]), each landmark's marginal
 //!    covariance; the gauge from the design's marks (installation tolerance), surveyed
 //!    anchors, or the first landmark;
 //! 4. [`walls`]: the walls from every keyframe's wall points at the solved poses, per metre;
@@ -22,10 +23,14 @@ pub mod graph;
 pub mod keyframes;
 pub mod landmark_fit;
 pub mod observations;
+pub mod own_se2;
 pub mod plot;
 pub mod report;
 pub mod scan_steps;
 pub mod score;
+pub mod solver_apex;
+pub mod solver_factrs;
+pub mod solver_own;
 pub mod steps;
 pub mod walls;
 
@@ -43,7 +48,7 @@ use crate::replay::{ReplayError, ReplaySources};
 use crate::scenario::Scenario;
 use crate::stored_map::{wall_position, MAP_CELL_M};
 use crate::vehicle::SimPose;
-use graph::{Prior, Problem, Relative};
+use graph::{Prior, Problem, Relative, Solver};
 use landmark_fit::FitConfig;
 use walls::{Stations, SurveyedWall};
 
@@ -78,6 +83,8 @@ pub struct SurveyOptions {
     pub min_observations: usize,
     /// Levenberg–Marquardt iterations at most.
     pub max_iterations: usize,
+    /// The back end of the joint solve.
+    pub solver: Solver,
     /// The per-scan landmark fit.
     pub fit: FitConfig,
     /// Drive without a landmark fix longer than this is reported as a stretch whose
@@ -87,7 +94,7 @@ pub struct SurveyOptions {
 
 impl Default for SurveyOptions {
     /// A keyframe every 0.25 m, landmarks within 20 m, the design as prior with a 0.05 m
-    /// tolerance, 10 fits per landmark, 30 iterations.
+    /// tolerance, 10 fits per landmark, 30 iterations of factrs.
     fn default() -> Self {
         Self {
             keyframe_spacing_m: 0.25,
@@ -96,6 +103,7 @@ impl Default for SurveyOptions {
             anchors: Vec::new(),
             min_observations: 10,
             max_iterations: 30,
+            solver: Solver::Factrs,
             fit: FitConfig::default(),
             max_unobserved_m: 15.0,
         }
@@ -215,6 +223,24 @@ pub struct Timings {
     pub map_s: f64,
 }
 
+/// How the joint solve went.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SolveStats {
+    /// The back end.
+    pub solver: Solver,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// Keyframes and landmarks solved for.
+    pub variables: usize,
+    /// Factors (the loose prior, steps, landmark fits, landmark priors).
+    pub factors: usize,
+    /// The cost `Σ ρ(d²)` (squared Mahalanobis lengths, Huber on the scans' factors) at the
+    /// start, dimensionless.
+    pub error_before: f64,
+    /// The same at the solution.
+    pub error_after: f64,
+}
+
 /// The survey's result.
 #[derive(Debug)]
 pub struct Survey {
@@ -265,6 +291,8 @@ pub struct Survey {
     pub warnings: Vec<String>,
     /// Time per stage.
     pub timings: Timings,
+    /// The joint solve's back end, iterations and cost.
+    pub solve: SolveStats,
 }
 
 /// Why a survey could not run.
@@ -502,7 +530,19 @@ pub fn survey(
             });
         }
     }
-    let solution = graph::solve(&problem, options.max_iterations).map_err(SurveyError::Graph)?;
+    let solution = graph::solve(&problem, options.solver, options.max_iterations)
+        .map_err(SurveyError::Graph)?;
+    let solve = SolveStats {
+        solver: options.solver,
+        iterations: solution.iterations,
+        variables: problem.keyframes.len() + problem.landmarks.len(),
+        factors: usize::from(!problem.keyframes.is_empty())
+            + problem.steps.len()
+            + problem.observations.len()
+            + problem.priors.len(),
+        error_before: solution.error_before,
+        error_after: solution.error_after,
+    };
     // Steps the solution contradicts (a scan match that locked wrong, odometry that
     // slipped): the Huber kernel kept them from bending the map, the report names them.
     let mut inconsistent_steps: Vec<Stretch> = Vec::new();
@@ -740,6 +780,7 @@ pub fn survey(
         walls: [left, right],
         warnings,
         timings,
+        solve,
     })
 }
 

@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::score::LandmarkScore;
-use super::{Gauge, LandmarkState, Stretch, Survey, SurveyedLandmark, Timings, Unexplained};
+use super::{
+    Gauge, LandmarkState, SolveStats, Stretch, Survey, SurveyedLandmark, Timings, Unexplained,
+};
 
 /// The surveyed map and the prior against the truth (simulated drives).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -58,6 +60,8 @@ pub struct SurveyJson<'a> {
     pub against_truth: Option<AgainstTruth>,
     /// Time per stage, seconds.
     pub timings: Timings,
+    /// The joint solve: back end, iterations, cost before and after.
+    pub solve: SolveStats,
     /// Warnings.
     pub warnings: &'a [String],
     /// Every landmark of the prior map.
@@ -101,6 +105,7 @@ pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
         unexplained: &s.unexplained,
         against_truth: truth,
         timings: s.timings,
+        solve: s.solve,
         warnings: &s.warnings,
         landmarks: &s.landmarks,
     }
@@ -276,6 +281,12 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
         o,
         "\ntime: front end {:.1} s, landmark fits {:.1} s, joint solve {:.1} s, walls and map {:.1} s",
         t.front_end_s, t.observations_s, t.solve_s, t.map_s
+    );
+    let v = &s.solve;
+    let _ = writeln!(
+        o,
+        "joint solve: {}, {} keyframes and landmarks, {} factors, {} iterations, cost {:.6e} → {:.6e}",
+        v.solver, v.variables, v.factors, v.iterations, v.error_before, v.error_after
     );
     o
 }
