@@ -4,7 +4,9 @@
 # run-qemu-tests.sh. Exit status is the firmware's (semihosting exit: 0 success, 1 failure),
 # 124 on time-out.
 #   usage: qemu-run.sh ELF [QEMU ARGS...]
-#   env:   QEMU_TIMEOUT_S (default 300), QEMU_SERIAL (UART0, default null)
+#   env:   QEMU_TIMEOUT_S (default 300), QEMU_SERIAL (UART0, default null),
+#          QEMU_MAP (the map image file flashed, default the recording's map.bin; the
+#          testbench also writes map_1km.bin and map_10km.bin, the same tunnel longer)
 # The testbench's recorded map and start pose go into the map flash region (the map at
 # 0x00300000, the start pose in its last 4 KiB at 0x003FF000), as a flasher would put them
 # (the selftest checks them; the controller uses them).
@@ -13,7 +15,7 @@ elf=$1
 shift
 out_dir=$(ls -td "$(dirname "$elf")"/build/firmware-testbench-*/out 2>/dev/null | head -1)
 loader=()
-[ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
+[ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/${QEMU_MAP:-map.bin},addr=0x00300000"
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 raw=$(mktemp)
 trap 'rm -f "$raw"' EXIT

@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# Builds the firmware for QEMU mps2-an386 (release), runs the on-target self-tests and the
+# Builds the firmware for QEMU mps2-an386 (release; linked into the STM32F407's 1 MiB flash
+# and 128 KiB SRAM, memory/mps2-an386.x), runs the on-target self-tests and the
 # instruction-count benchmark under QEMU, and checks the result:
 #   - selftest: every test passes, and the bytes it sent on UART0 arrive on the host;
-#   - bench: the end-to-end pipeline stays within its instruction budget per scan.
+#   - bench: the end-to-end pipeline stays within its instruction budget per scan and the
+#     RAM budget (static + stack high-water mark <= 96 KiB), against the recording's map
+#     image and the same tunnel's 1 km and 10 km images (the map is read in place: RAM
+#     does not grow with it);
+#   - the controller against the LMS5xx emulator, and its RAM at the end of that run.
 # Prints the per-stage instruction counts, a cargo-style `test result:` line (summed by
 # scripts/test-all.sh) and `N passed, N failed`. Exits non-zero on any failure.
 # Needs: qemu-system-arm (scripts/setup.sh) and defmt-print (installed here if missing).
@@ -108,8 +113,9 @@ echo "--> benchmark under QEMU (instructions per scan, budget check)"
 if [ -x "$elf_dir/bench" ]; then
   run_qemu "$elf_dir/bench" "$work/uart0-bench.bin" | tee "$work/bench.log"
   status=${PIPESTATUS[0]}
-  if [ "$status" -eq 0 ] && grep -q '^budget PASS' "$work/bench.log"; then
-    pass "bench within budget"
+  if [ "$status" -eq 0 ] && grep -q '^budget PASS' "$work/bench.log" \
+    && grep -q '^ram PASS' "$work/bench.log"; then
+    pass "bench within the instruction and RAM budgets"
   elif [ "$FW_BUDGET_ENFORCE" = 0 ] && grep -q '^budget FAIL' "$work/bench.log" \
     && ! grep -qE '^FAIL:|panic|HardFault' "$work/bench.log"; then
     echo "WARNING: instruction budget exceeded (not enforced: FW_BUDGET_ENFORCE=0)"
@@ -120,6 +126,23 @@ if [ -x "$elf_dir/bench" ]; then
 else
   fail "bench ELF missing"
 fi
+
+echo "--> benchmark against the same tunnel's 1 km and 10 km map images (same RAM)"
+for long_map in map_1km.bin map_10km.bin; do
+  if [ -x "$elf_dir/bench" ] && [ -f "$out_dir/$long_map" ]; then
+    QEMU_MAP=$long_map run_qemu "$elf_dir/bench" "$work/uart0-bench.bin" >"$work/bench-long.log"
+    status=$?
+    grep -E '^(map:|ram|budget|stage end-to-end|localizer:)' "$work/bench-long.log"
+    if [ "$status" -eq 0 ] && grep -q '^budget PASS' "$work/bench-long.log" \
+      && grep -q '^ram PASS' "$work/bench-long.log"; then
+      pass "bench on $long_map within the instruction and RAM budgets"
+    else
+      fail "bench on $long_map (QEMU status $status)"
+    fi
+  else
+    fail "bench ELF or $long_map missing"
+  fi
+done
 
 echo "--> controller under QEMU against the LMS5xx emulator (hardware-in-the-loop)"
 echo "    (no -icount in this run: the per-scan counts it logs follow QEMU's clock, not the"
@@ -155,6 +178,13 @@ if (cd .. && cargo build --release --quiet -p lms5xx-emulator) \
       pass "controller localised $HIL_SCANS emulated LMS511 scans over UART0"
     else
       fail "controller against the emulator (QEMU status $status, $tracking tracking)"
+    fi
+    # Its RAM over that run, session buffer included: static + stack high-water mark.
+    ram=$(sed -nE 's/.*= ([0-9]+) bytes \(headroom left: true\).*/\1/p' "$work/controller.log" | tail -1)
+    if [ -n "$ram" ] && [ "$ram" -le $((96 * 1024)) ]; then
+      pass "controller RAM $ram bytes <= 96 KiB (static + stack high-water mark)"
+    else
+      fail "controller RAM '${ram:-not reported}' bytes over 96 KiB or not measured"
     fi
   else
     fail "LMS5xx emulator did not start: $(cat "$work/emulator.log")"

@@ -1,8 +1,10 @@
 //! The controller loop: LMS511 telegrams in over the board's serial port, a pose frame out on
 //! the same port after every scan.
 //!
-//! **Start-up.** The board's map flash region holds the stored map (a loc-core map file,
-//! `LCMP`, from its first byte) and, in its last [`START_POSE_BLOCK_BYTES`], the start pose
+//! **Start-up.** The board's map flash region holds the stored map (loc-core's map flash
+//! image, `LCMI`, from its first byte: `host-sim export-map --format image`), queried in
+//! place — the map never comes into RAM, so RAM does not grow with the tunnel's length —
+//! and, in its last [`START_POSE_BLOCK_BYTES`], the start pose
 //! (a loc-core [`StartPose`] record, `LCSP`: where the vehicle stands at power-up and how
 //! sure that is), both written by the flasher (`probe-rs download`, QEMU's `-device
 //! loader`). Without a valid map the controller never localises: it logs why, sends a
@@ -19,17 +21,20 @@
 use lidar_driver::session::{Event, Session, SessionConfig};
 use lidar_driver::transport::FixedLink;
 use lidar_driver::ScanData;
+use loc_core::filter::FilterInitError;
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::localizer::{
     Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
 };
-use loc_core::map::{MapError, TunnelMap, WallSide};
+use loc_core::map::{MapError, MapImage, WallSide};
 use loc_core::scan::Scan;
 use nalgebra::{Matrix3, Vector3};
 use scan_input::ScanInputError;
+use static_cell::ConstStaticCell;
 
 use crate::board::{Board, ExitStatus};
+use crate::flash_map::{FlashMap, MAP};
 use crate::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
@@ -61,10 +66,12 @@ pub fn split_region(region: &[u8]) -> (&[u8], &[u8]) {
     region.split_at(region.len().saturating_sub(START_POSE_BLOCK_BYTES))
 }
 
-/// Loads the map from `region` (the map flash region) into `map`. The map part of the
-/// region may hold padding after the map (erased `0xFF` or `0x00`), nothing else.
-pub fn load_map(region: &[u8], map: &mut TunnelMap) -> Result<(), MapError> {
-    map.load_from_region(split_region(region).0)
+/// Opens the map image at the start of `region` (the map flash region) in place as the
+/// program's map ([`MAP`]), after checking it whole (CRC, every count, segment, index entry
+/// and landmark). The map part of the region may hold padding after the image (erased
+/// `0xFF` or `0x00`), nothing else.
+pub fn load_map(region: &'static [u8]) -> Result<&'static MapImage<'static>, MapError> {
+    MAP.open(split_region(region).0)
 }
 
 /// The start pose: the record in `region`'s start-pose block, else the entrance of `map`
@@ -72,7 +79,7 @@ pub fn load_map(region: &[u8], map: &mut TunnelMap) -> Result<(), MapError> {
 /// says which, and the record's error when it was unusable.
 pub fn start_pose(
     region: &[u8],
-    map: &TunnelMap,
+    map: &MapImage<'_>,
 ) -> Result<(StartSource, StartPose, Option<StartPoseError>), MapError> {
     let record = StartPose::from_bytes(split_region(region).1);
     if let Ok(start) = record {
@@ -104,34 +111,41 @@ pub fn start_pose(
     })
 }
 
-/// The localisation side of the controller (≈ 70 KiB: keep it in a static).
+/// The localisation side of the controller (≈ 70 KiB), on the map image read in place
+/// ([`MAP`]). There is one, built at compile time in a static: [`Controller::take`].
 pub struct Controller<'m> {
-    localizer: Localizer<'m, TunnelMap>,
+    localizer: Localizer<'m, FlashMap>,
     scan: Scan,
     motion: OdometryIncrement,
     last_pose: Option<Pose2>,
 }
 
 impl<'m> Controller<'m> {
-    /// A controller on `map` with loc-core's default configuration, starting at `start`.
-    pub fn new(map: &'m TunnelMap, start: &StartPose) -> Option<Self> {
-        let localizer = Localizer::new(
-            map,
-            LocalizerConfig::default(),
-            start.pose,
-            start.covariance(),
-        )
-        .ok()?;
-        Some(Self {
-            localizer,
+    /// A controller on `map` with loc-core's default configuration, not started
+    /// ([`Controller::start`]). A `const fn`, for the static of [`Controller::take`].
+    pub const fn new(map: &'m FlashMap) -> Self {
+        Self {
+            localizer: Localizer::uninitialised(map, LocalizerConfig::DEFAULT),
             scan: Scan::new(),
-            motion: OdometryIncrement::default(),
+            motion: OdometryIncrement {
+                dx_m: 0.0,
+                dy_m: 0.0,
+                dtheta_rad: 0.0,
+            },
             last_pose: None,
-        })
+        }
+    }
+
+    /// (Re)starts localising at `start`, forgetting the motion so far.
+    pub fn start(&mut self, start: &StartPose) -> Result<(), FilterInitError> {
+        self.localizer.initialise(start.pose, start.covariance())?;
+        self.motion = OdometryIncrement::default();
+        self.last_pose = None;
+        Ok(())
     }
 
     /// The localizer (status, pose, last strip and match).
-    pub fn localizer(&self) -> &Localizer<'m, TunnelMap> {
+    pub fn localizer(&self) -> &Localizer<'m, FlashMap> {
         &self.localizer
     }
 
@@ -183,6 +197,18 @@ impl<'m> Controller<'m> {
         self.predict(None);
         self.load_scan(telegram)?;
         Ok(self.localise(u32::from(telegram.header.scan_counter), &mut ()))
+    }
+}
+
+/// The program's controller, built at compile time (its ≈ 70 KiB are in `.bss`; building it
+/// at run time would put a copy on the stack first).
+static CONTROLLER: ConstStaticCell<Controller<'static>> =
+    ConstStaticCell::new(Controller::new(&MAP));
+
+impl Controller<'static> {
+    /// The program's controller on [`MAP`], once: `None` when taken before.
+    pub fn take() -> Option<&'static mut Self> {
+        CONTROLLER.try_take()
     }
 }
 
@@ -287,9 +313,14 @@ pub fn run<B: Board>(
             send(board, &frame);
             scans += 1;
             if scan_limit.is_some_and(|limit| scans >= limit) {
+                let ram = crate::ram::usage();
                 defmt::println!(
-                    "controller: {=u32} scans localised, stopping (test run)",
-                    scans
+                    "controller: {=u32} scans localised, stopping (test run); ram: static {=u32} bytes + stack high-water mark {=u32} bytes = {=u32} bytes (headroom left: {=bool})",
+                    scans,
+                    ram.static_bytes,
+                    ram.stack_high_water_bytes,
+                    ram.total_bytes(),
+                    ram.headroom_left
                 );
                 B::exit(ExitStatus::Success);
             }

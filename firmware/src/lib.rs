@@ -7,8 +7,10 @@
 //!   and one module per board; one board is compiled in (under QEMU: `mps2-an386`);
 //! - [`controller`]: the loop a vehicle runs (LMS session, localiser, pose frames), the
 //!   stored map and the start pose read from the map flash region;
+//! - [`flash_map`]: the map image read in place from the map flash region;
 //! - [`pose_frame`]: the pose output frame;
-//! - [`fault`]: panic and HardFault handlers.
+//! - [`fault`]: panic and HardFault handlers;
+//! - [`ram`]: static RAM and the stack's high-water mark (painted stack).
 //!
 //! The benchmark, the on-target self-tests and the recorded fixtures they replay are the
 //! `firmware-testbench` crate beside this one; nothing here reaches them.
@@ -18,6 +20,8 @@
 pub mod board;
 pub mod controller;
 pub mod fault;
+pub mod flash_map;
 pub mod pose_frame;
+pub mod ram;
 
 pub use board::{Board, ExitStatus, SelectedBoard};

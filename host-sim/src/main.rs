@@ -419,8 +419,13 @@ struct DesignArgs {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum MapFormat {
+    /// The map file (`LCMP`): compact, what `replay --map` and `run --map` read.
     Postcard,
+    /// Every wall vertex and landmark polyline, for other tools.
     Json,
+    /// The flash image (`LCMI`) the controller queries in place, to be flashed at the start
+    /// of the board's map region.
+    Image,
 }
 
 #[derive(Args)]
@@ -446,6 +451,10 @@ struct ExportArgs {
     /// yardstick of `host-sim survey`).
     #[arg(long)]
     as_built: bool,
+    /// Convert this map file (`LCMP`, e.g. a survey's `survey.postcard`) instead of
+    /// building the scenario's map.
+    #[arg(long, conflicts_with = "as_built")]
+    map: Option<PathBuf>,
 }
 
 impl ScenarioArgs {
@@ -902,10 +911,17 @@ fn start_pose_record(
 }
 
 fn cmd_export(a: &ExportArgs) -> Result<(), String> {
-    let s = load_scenario(&a.scenario)?;
-    let world = s.build_world().map_err(|e| e.to_string())?;
-    if let Some(path) = &a.start_pose_out {
-        let start = start_pose_record(&s, &world, a.start_pose.as_deref())?;
+    // A map file to convert needs no scenario (unless a start pose is asked for too).
+    let scenario = match (&a.map, &a.start_pose_out) {
+        (Some(_), None) => None,
+        _ => {
+            let s = load_scenario(&a.scenario)?;
+            let world = s.build_world().map_err(|e| e.to_string())?;
+            Some((s, world))
+        }
+    };
+    if let (Some(path), Some((s, world))) = (&a.start_pose_out, &scenario) {
+        let start = start_pose_record(s, world, a.start_pose.as_deref())?;
         write_file(path, &start.to_bytes())?;
         eprintln!(
             "wrote {} (start pose x {:.3} m, y {:.3} m, heading {:.4} rad, sigma {:.3} m / {:.4} rad)",
@@ -917,14 +933,35 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
             start.sigma_theta_rad
         );
     }
-    let choice = s.landmark_choice().map_err(|e| e.to_string())?;
-    let map = if a.as_built {
-        stored_map::build_as_built(&world, &choice)
-    } else {
-        stored_map::build(&world, &choice)
-    }
-    .map_err(|e| e.to_string())?;
+    let map = match (&a.map, &scenario) {
+        (Some(path), _) => replay::read_map(path).map_err(|e| e.to_string())?,
+        (None, Some((s, world))) => {
+            let choice = s.landmark_choice().map_err(|e| e.to_string())?;
+            if a.as_built {
+                stored_map::build_as_built(world, &choice)
+            } else {
+                stored_map::build(world, &choice)
+            }
+            .map_err(|e| e.to_string())?
+        }
+        (None, None) => return Err("give a scenario or --map FILE".into()),
+    };
     match a.format {
+        MapFormat::Image => {
+            let mut bytes = vec![0u8; map.image_len()];
+            let n = map.write_image(&mut bytes).map_err(|e| e.to_string())?;
+            bytes.truncate(n);
+            let p = a.out.clone().unwrap_or_else(|| PathBuf::from("map.image"));
+            write_file(&p, &bytes)?;
+            eprintln!(
+                "wrote {} ({} bytes of flash: {} segments, {} landmarks, {} index cells); flash it at the start of the board's map region",
+                p.display(),
+                bytes.len(),
+                map.segments().len(),
+                map.landmarks().len(),
+                map.index_stats().cells
+            );
+        }
         MapFormat::Json => {
             let text = map_export::to_json(&map).to_pretty();
             match &a.out {

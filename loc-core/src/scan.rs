@@ -46,7 +46,7 @@ impl ScanGeometry {
 
     /// The LMS511 at 25 Hz: −5°…+185° at 0.1667° (1141 beams), 0.7–80 m. Built from the
     /// telegram units the scanner itself reports (−50000 and 1667 in 1/10000°).
-    pub fn lms511() -> Self {
+    pub const fn lms511() -> Self {
         Self::from_telegram_units(
             -50_000,
             1_667,
@@ -57,7 +57,7 @@ impl ScanGeometry {
 
     /// A geometry from the telegram's units: start angle and angular step in 1/10000 degree
     /// (`LMDscandata` gives the step as u16; `LMPoutputRange` as u32), ranges in metres.
-    pub fn from_telegram_units(
+    pub const fn from_telegram_units(
         start_angle_1e4_deg: i32,
         step_1e4_deg: u32,
         min_range_m: f32,
@@ -130,10 +130,15 @@ pub struct SensorSetup {
 impl SensorSetup {
     /// An LMS511 at `(x_m, y_m)` in the vehicle frame, its 90° beam looking forward
     /// (mounting heading −π/2), so the scan covers −95°…+95° about the vehicle's x axis.
-    pub fn lms511_forward(x_m: f32, y_m: f32) -> Self {
+    pub const fn lms511_forward(x_m: f32, y_m: f32) -> Self {
         Self {
             geometry: ScanGeometry::lms511(),
-            mounting: Pose2::new(x_m, y_m, -PI / 2.0),
+            // −π/2 is inside (−π, π]: no wrapping needed (`Pose2::new` wraps, and is not const).
+            mounting: Pose2 {
+                x_m,
+                y_m,
+                theta_rad: -PI / 2.0,
+            },
         }
     }
 
@@ -144,10 +149,16 @@ impl SensorSetup {
     }
 }
 
+impl SensorSetup {
+    /// An LMS511 at the vehicle origin looking forward ([`SensorSetup::lms511_forward`]),
+    /// usable in `const` and `static` items.
+    pub const DEFAULT: Self = Self::lms511_forward(0.0, 0.0);
+}
+
 impl Default for SensorSetup {
     /// An LMS511 at the vehicle origin looking forward ([`SensorSetup::lms511_forward`]).
     fn default() -> Self {
-        Self::lms511_forward(0.0, 0.0)
+        Self::DEFAULT
     }
 }
 

@@ -9,7 +9,6 @@
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::controller::{self, Controller, SESSION_BUFFER_BYTES};
-use loc_core::map::TunnelMap;
 
 /// Scans after which a test build stops (`FW_CONTROLLER_SCANS` at build time).
 const SCAN_LIMIT: Option<u32> = parse_limit(option_env!("FW_CONTROLLER_SCANS"));
@@ -36,20 +35,23 @@ const fn parse_limit(text: Option<&str>) -> Option<u32> {
 
 #[entry]
 fn main() -> ! {
+    // For the RAM report of test runs (`firmware::ram`): the free stack, painted.
+    firmware::ram::paint_stack();
     let Some(mut board) = SelectedBoard::take() else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
-    let (Some(map), Some(slot), Some(session_buf)) = (
-        cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
-        cortex_m::singleton!(: Option<Controller<'static>> = None),
+    let (Some(controller), Some(session_buf)) = (
+        Controller::take(),
         cortex_m::singleton!(: [u8; SESSION_BUFFER_BYTES] = [0; SESSION_BUFFER_BYTES]),
     ) else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
     let region = board.map_region();
-    let start =
-        controller::load_map(region, map).and_then(|()| controller::start_pose(region, map));
-    let (source, start, record_error) = match start {
+    let map = match controller::load_map(region) {
+        Ok(map) => map,
+        Err(e) => controller::wait_without_map(&mut board, &e),
+    };
+    let (source, start, record_error) = match controller::start_pose(region, map) {
         Ok(s) => s,
         Err(e) => controller::wait_without_map(&mut board, &e),
     };
@@ -59,20 +61,19 @@ fn main() -> ! {
             e
         );
     }
-    let map: &'static TunnelMap = map;
     defmt::println!(
-        "controller on {=str}: map of {=usize} landmarks; start ({=f32}, {=f32}, {=f32}) from {}",
+        "controller on {=str}: map image of {=usize} bytes, {=usize} landmarks, read in place; start ({=f32}, {=f32}, {=f32}) from {}",
         SelectedBoard::NAME,
-        map.landmarks().len(),
+        map.len_bytes(),
+        map.landmark_count(),
         start.pose.x_m,
         start.pose.y_m,
         start.pose.theta_rad,
         source
     );
-    let Some(controller) = Controller::new(map, &start) else {
-        defmt::error!("start covariance rejected by the filter");
+    if let Err(e) = controller.start(&start) {
+        defmt::error!("start pose rejected by the filter: {}", e);
         SelectedBoard::exit(ExitStatus::Failure)
-    };
-    let controller = slot.insert(controller);
+    }
     controller::run(&mut board, controller, session_buf, SCAN_LIMIT)
 }

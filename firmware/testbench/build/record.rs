@@ -1,6 +1,7 @@
 //! "Recording" of the replay data on the host at build time, with loc-core's test kit: a
-//! straight 5 m tunnel with the paper's P1 triangular landmarks, its stored map serialised
-//! exactly as it is flashed, the start pose the controller is given (the truth 0.34 m and
+//! straight 5 m tunnel with the paper's P1 triangular landmarks, its map flash image exactly
+//! as it is flashed (and the images of the same tunnel continued to 1 km and 10 km,
+//! `map_1km.bin`, `map_10km.bin`), the start pose the controller is given (the truth 0.34 m and
 //! 0.02 rad off), and LMS511 scans (1141 beams, 10 mm noise) along a drive through it as
 //! the CoLa-B `LMDscandata` telegrams an LMS511 sends, with the true poses and a
 //! 2 %-scale-error odometry between scans.
@@ -96,6 +97,26 @@ fn scan_telegram(k: usize, values: Vec<u16>) -> Vec<u8> {
         .expect("an LMS511 scan emits as CoLa-B")
 }
 
+/// Capacity of the long map at build time (host memory): 10 km of walls every metre and a
+/// landmark every ~9 m on each wall.
+type LongMap = loc_core::map::StoredMap<32768, 4096, 32768, 131072>;
+
+/// The map image of the recording's tunnel continued to `length_m`: the same walls and,
+/// drawn from the same seeded spacings, the same landmarks over the recorded drive, so the
+/// recorded scans localise against it exactly as against the short one.
+fn write_long_map(out: &Path, length_m: f32, name: &str) {
+    let spec = TunnelSpec::straight(length_m).with_landmarks(LandmarkLayout::paper(
+        LandmarkModel::P1Triangle,
+        LAYOUT_SEED,
+    ));
+    let mut map = Box::new(LongMap::new());
+    spec.build_into(&mut map)
+        .expect("the long tunnel fits the build-time map");
+    let mut bytes = vec![0u8; map.image_len()];
+    map.write_image(&mut bytes).expect("long map image writes");
+    fs::write(out.join(name), &bytes).expect("write the long map image");
+}
+
 /// Writes the recording into `out`.
 pub fn write_recordings(out: &Path) {
     let spec = TunnelSpec::straight(TUNNEL_LENGTH_M).with_landmarks(LandmarkLayout::paper(
@@ -105,10 +126,11 @@ pub fn write_recordings(out: &Path) {
     let mut map = Box::new(TunnelMap::new());
     spec.build_into(&mut map)
         .expect("test kit tunnel fits the firmware's TunnelMap");
-    let mut map_bytes = vec![0u8; map.serialized_len()];
-    let n = map.to_slice(&mut map_bytes).expect("map serialises");
-    map_bytes.truncate(n);
+    let mut map_bytes = vec![0u8; map.image_len()];
+    let n = map.write_image(&mut map_bytes).expect("map image writes");
     fs::write(out.join("map.bin"), &map_bytes).expect("write map.bin");
+    write_long_map(out, 1_000.0, "map_1km.bin");
+    write_long_map(out, 10_000.0, "map_10km.bin");
 
     let setup = SensorSetup::lms511_forward(0.0, 0.0);
     let mut sim = ScanSimulator::new(NOISE_SEED);
@@ -171,7 +193,7 @@ pub fn write_recordings(out: &Path) {
         "/// Scans in the recording.\npub const SCAN_COUNT: usize = {SCANS};\n\
          /// Beams per scan.\npub const BEAMS_PER_SCAN: usize = {LMS511_MAX_BEAMS};\n\
          /// Landmarks in the recorded map.\npub const MAP_LANDMARKS: usize = {landmarks};\n\
-         /// Length of the serialised map, bytes.\npub const MAP_BYTES_LEN: usize = {n};\n\
+         /// Length of the map image, bytes.\npub const MAP_BYTES_LEN: usize = {n};\n\
          /// Error of the recorded start pose against the first true pose: x_m, y_m, theta_rad.\n\
          pub const INITIAL_ERROR: [f32; 3] = {INITIAL_ERROR:?};\n\
          /// `(offset, length)` of each scan's telegram in the CoLa-B stream, bytes.\n\

@@ -1,5 +1,5 @@
-//! The recorded replay data, embedded in flash: the stored map exactly as it is flashed
-//! (header + postcard payload + CRC), the start pose the controller is given, synthetic
+//! The recorded replay data, embedded in flash: the map flash image exactly as it is
+//! flashed (`LCMI`: header, segments, index, landmarks, CRC), the start pose the controller is given, synthetic
 //! LMS511 scans as the CoLa-B `LMDscandata` telegrams the scanner sends, the true poses and
 //! the odometry between scans.
 //!
@@ -14,7 +14,7 @@ pub use generated::{
     TRUE_POSES,
 };
 
-/// The serialised map, as a flash region holding a map file would contain it.
+/// The map image, as the map flash region holds it.
 pub static MAP_BYTES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/map.bin"));
 
 /// The start-pose record (loc-core's `StartPose`), as the flasher writes it.

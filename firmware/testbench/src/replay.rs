@@ -10,7 +10,7 @@ use firmware::controller::Controller;
 use lidar_driver::{Frame, ScanData};
 use loc_core::filter::OdometryIncrement;
 use loc_core::localizer::{StartPose, StartPoseError, Status};
-use loc_core::map::{MapError, TunnelMap};
+use loc_core::map::{MapError, MapImage};
 
 use crate::recorded::{self, ODOMETRY, SCAN_COUNT, TRUE_POSES};
 use crate::stage_stats::{BenchStage, StageCosts, StageStats, StageTimer};
@@ -62,23 +62,25 @@ fn odometry(k: usize) -> OdometryIncrement {
     }
 }
 
-/// Loads the map from its flashed bytes into `map` (in place: a `TunnelMap` is ≈ 140 KiB),
-/// returning the cost on `board`'s counter.
-pub fn load_map<B: Board>(board: &B, map: &mut TunnelMap) -> Result<u64, MapError> {
+/// Opens the map image in the board's map flash region as the controller does (the
+/// program's map, `firmware::flash_map::MAP`), returning it and the cost of its checks on
+/// `board`'s counter (the first call's: the image is opened once).
+pub fn load_map<B: Board>(board: &B) -> Result<(&'static MapImage<'static>, u64), MapError> {
     let t0 = board.counter_now();
-    map.load_from_bytes(recorded::MAP_BYTES)?;
-    Ok(board.counter_now() - t0)
+    let map = firmware::controller::load_map(board.map_region())?;
+    Ok((map, board.counter_now() - t0))
 }
 
-/// Replays every recorded telegram through a controller on `map` (already loaded, see
-/// [`load_map`]) kept in `slot`.
-pub fn replay<'m, B: Board>(
+/// Replays every recorded telegram through `controller` (its map opened, see [`load_map`]),
+/// started afresh at the recorded start pose.
+pub fn replay<B: Board>(
     board: &B,
-    map: &'m TunnelMap,
-    slot: &mut Option<Controller<'m>>,
+    controller: &mut Controller<'_>,
 ) -> Result<ReplayReport, ReplayError> {
     let start = start_pose().map_err(|_| ReplayError::StartPose)?;
-    let controller = slot.insert(Controller::new(map, &start).ok_or(ReplayError::InitialPose)?);
+    controller
+        .start(&start)
+        .map_err(|_| ReplayError::InitialPose)?;
     let mut report = ReplayReport {
         stages: [StageStats::new(); BenchStage::ALL.len()],
         end_to_end: StageStats::new(),

@@ -21,13 +21,18 @@ pub struct CoastNoise {
     pub yaw_rate_sd_radps: f32,
 }
 
-impl Default for CoastNoise {
+impl CoastNoise {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
     /// 0.5 m/s and 0.05 rad/s.
+    pub const DEFAULT: Self = Self {
+        speed_sd_mps: 0.5,
+        yaw_rate_sd_radps: 0.05,
+    };
+}
+
+impl Default for CoastNoise {
     fn default() -> Self {
-        Self {
-            speed_sd_mps: 0.5,
-            yaw_rate_sd_radps: 0.05,
-        }
+        Self::DEFAULT
     }
 }
 

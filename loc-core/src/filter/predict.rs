@@ -89,7 +89,8 @@ pub struct OdometryNoise {
     pub max_turn_rad: f32,
 }
 
-impl Default for OdometryNoise {
+impl OdometryNoise {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
     /// Scale 3 %, drifting 0.5 % over 10 m; random 1 % over 1 m forward, three times that
     /// sideways, 16 mrad over 1 m and 5 % of each turn in heading (the heading noise of the
     /// earlier model: with less, the bare `tunnel-1km`'s first 300 m went from 8.1 to
@@ -101,21 +102,25 @@ impl Default for OdometryNoise {
     /// forward noise (side slip alone) the filter claimed 2.5 mm across where it was off by
     /// 3 cm: on the S-bend 14 % of its tracked poses lay beyond 3σ (1.6–2.2 % with 3×,
     /// which costs 0.2–0.4 mm of the across-tunnel RMS that averaging would win).
+    pub const DEFAULT: Self = Self {
+        drift_fraction: 0.01,
+        drift_length_m: 1.0,
+        across_to_along: 3.0,
+        heading_drift_rad_per_m: 0.016,
+        heading_fraction: 0.05,
+        scale_sd: 0.03,
+        scale_drift_sd: 0.005,
+        scale_drift_length_m: 10.0,
+        min_translation_var_m2: 1.0e-10,
+        min_heading_var_rad2: 1.0e-12,
+        max_step_m: 5.0,
+        max_turn_rad: 1.0,
+    };
+}
+
+impl Default for OdometryNoise {
     fn default() -> Self {
-        Self {
-            drift_fraction: 0.01,
-            drift_length_m: 1.0,
-            across_to_along: 3.0,
-            heading_drift_rad_per_m: 0.016,
-            heading_fraction: 0.05,
-            scale_sd: 0.03,
-            scale_drift_sd: 0.005,
-            scale_drift_length_m: 10.0,
-            min_translation_var_m2: 1.0e-10,
-            min_heading_var_rad2: 1.0e-12,
-            max_step_m: 5.0,
-            max_turn_rad: 1.0,
-        }
+        Self::DEFAULT
     }
 }
 

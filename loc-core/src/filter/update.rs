@@ -61,13 +61,18 @@ pub struct UpdateConfig {
     pub min_measurement_sd_m: f32,
 }
 
-impl Default for UpdateConfig {
+impl UpdateConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
     /// Gate at 0.1 %, 5 mm measurement floor.
+    pub const DEFAULT: Self = Self {
+        gate: GateProbability::P999,
+        min_measurement_sd_m: 0.005,
+    };
+}
+
+impl Default for UpdateConfig {
     fn default() -> Self {
-        Self {
-            gate: GateProbability::P999,
-            min_measurement_sd_m: 0.005,
-        }
+        Self::DEFAULT
     }
 }
 

@@ -45,21 +45,26 @@ pub struct LocalizerConfig {
     pub integrity: IntegrityConfig,
 }
 
+impl LocalizerConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
+    pub const DEFAULT: Self = Self {
+        sensor: SensorSetup::DEFAULT,
+        strip: StripConfig::DEFAULT,
+        max_wall_points: 100,
+        wall_range_scale_m2: 10.0,
+        min_wall_range_m: 15.0,
+        prealign: PrealignConfig::DEFAULT,
+        matching: MatchConfig::DEFAULT,
+        odometry: OdometryNoise::DEFAULT,
+        coast: CoastNoise::DEFAULT,
+        update: UpdateConfig::DEFAULT,
+        integrity: IntegrityConfig::DEFAULT,
+    };
+}
+
 impl Default for LocalizerConfig {
     fn default() -> Self {
-        Self {
-            sensor: SensorSetup::default(),
-            strip: StripConfig::default(),
-            max_wall_points: 100,
-            wall_range_scale_m2: 10.0,
-            min_wall_range_m: 15.0,
-            prealign: PrealignConfig::default(),
-            matching: MatchConfig::default(),
-            odometry: OdometryNoise::default(),
-            coast: CoastNoise::default(),
-            update: UpdateConfig::default(),
-            integrity: IntegrityConfig::default(),
-        }
+        Self::DEFAULT
     }
 }
 

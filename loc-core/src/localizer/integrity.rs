@@ -59,24 +59,29 @@ pub struct IntegrityConfig {
     pub window_weight: f32,
 }
 
-impl Default for IntegrityConfig {
+impl IntegrityConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
     /// 5 cm (5σ of the LMS511's range noise); clusters of 4 points or more, split at 0.3 m
     /// gaps, explained when half of their checked points are (32 points checked per scan); trusted above 70 % of the last ≈ 16
     /// scans' clusters and half of the scan's own, again after 3 m of scans explaining two
     /// thirds of theirs.
+    pub const DEFAULT: Self = Self {
+        explained_within_m: 0.05,
+        max_cluster_gap_m: 0.3,
+        min_cluster_points: 4,
+        cluster_explained_fraction: 0.5,
+        max_checked_points: 32,
+        min_recent_fraction: 0.7,
+        min_scan_fraction: 0.5,
+        confirm_scan_fraction: 2.0 / 3.0,
+        confirm_distance_m: 3.0,
+        window_weight: 1.0 / 16.0,
+    };
+}
+
+impl Default for IntegrityConfig {
     fn default() -> Self {
-        Self {
-            explained_within_m: 0.05,
-            max_cluster_gap_m: 0.3,
-            min_cluster_points: 4,
-            cluster_explained_fraction: 0.5,
-            max_checked_points: 32,
-            min_recent_fraction: 0.7,
-            min_scan_fraction: 0.5,
-            confirm_scan_fraction: 2.0 / 3.0,
-            confirm_distance_m: 3.0,
-            window_weight: 1.0 / 16.0,
-        }
+        Self::DEFAULT
     }
 }
 
@@ -199,6 +204,15 @@ pub struct IntegrityMonitor {
 }
 
 impl IntegrityMonitor {
+    /// A monitor that has seen no scan (what [`Default`] gives), usable in `const` items.
+    pub const NEW: Self = Self {
+        explained: 0.0,
+        clusters: 0.0,
+        distrusted: false,
+        started: false,
+        confirm_from_m: None,
+    };
+
     /// Adds a scan's [`Integrity`]; `odometer_m` is the distance driven so far (any origin),
     /// metres. Returns whether the scan's pose may be trusted: the map is trusted after it,
     /// and the scan's own landmarks do not mostly misfit.

@@ -239,6 +239,11 @@ impl fmt::Display for MapError {
                 f,
                 "map bytes truncated: {needed} bytes needed, {got} given; re-export the map"
             ),
+            MapError::BadMagic { found } if *found == super::IMAGE_MAGIC => write!(
+                f,
+                "this is a map flash image (\"LCMI\"), not a map file (\"LCMP\"): \
+                 give the map file it was written from"
+            ),
             MapError::BadMagic { found } => {
                 write!(f, "not a map file: magic {found:02x?}, expected \"LCMP\"")
             }

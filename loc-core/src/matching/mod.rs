@@ -150,24 +150,29 @@ pub struct MatchConfig {
     pub rotation_scale_m: f32,
 }
 
+impl MatchConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
+    pub const DEFAULT: Self = Self {
+        matcher: MatcherKind::Hausdorff,
+        k_best: KBest::TrimmedMean,
+        k_fraction: 0.8,
+        keep_within_sigmas: 2.0,
+        max_iterations: 30,
+        association_gate_m: 1.0,
+        icp_min_gate_m: 0.05,
+        range_noise_sigma_m: 0.01,
+        roughness: RoughnessModel::SMOOTH,
+        min_points: 12,
+        min_information_points: 2.0,
+        convergence_translation_m: 2.0e-4,
+        convergence_rotation_rad: 2.0e-5,
+        rotation_scale_m: 10.0,
+    };
+}
+
 impl Default for MatchConfig {
     fn default() -> Self {
-        Self {
-            matcher: MatcherKind::Hausdorff,
-            k_best: KBest::TrimmedMean,
-            k_fraction: 0.8,
-            keep_within_sigmas: 2.0,
-            max_iterations: 30,
-            association_gate_m: 1.0,
-            icp_min_gate_m: 0.05,
-            range_noise_sigma_m: 0.01,
-            roughness: RoughnessModel::default(),
-            min_points: 12,
-            min_information_points: 2.0,
-            convergence_translation_m: 2.0e-4,
-            convergence_rotation_rad: 2.0e-5,
-            rotation_scale_m: 10.0,
-        }
+        Self::DEFAULT
     }
 }
 

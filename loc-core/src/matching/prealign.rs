@@ -54,20 +54,25 @@ pub struct PrealignConfig {
     pub max_shift_sigmas: f32,
 }
 
+impl PrealignConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
+    pub const DEFAULT: Self = Self {
+        enabled: true,
+        max_shift_m: 2.0,
+        search_radius_m: 2.5,
+        max_cluster_gap_m: 0.3,
+        min_cluster_points: 4,
+        max_disagreement_m: 0.25,
+        max_cluster_range_m: 20.0,
+        min_shift_m: 0.06,
+        min_prior_sd_m: 0.04,
+        max_shift_sigmas: 4.0,
+    };
+}
+
 impl Default for PrealignConfig {
     fn default() -> Self {
-        Self {
-            enabled: true,
-            max_shift_m: 2.0,
-            search_radius_m: 2.5,
-            max_cluster_gap_m: 0.3,
-            min_cluster_points: 4,
-            max_disagreement_m: 0.25,
-            max_cluster_range_m: 20.0,
-            min_shift_m: 0.06,
-            min_prior_sd_m: 0.04,
-            max_shift_sigmas: 4.0,
-        }
+        Self::DEFAULT
     }
 }
 

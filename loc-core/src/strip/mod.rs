@@ -129,23 +129,28 @@ pub struct StripConfig {
     pub seed: u64,
 }
 
-impl Default for StripConfig {
+impl StripConfig {
+    /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
     /// Tuned for the LMS511 (≈10 mm range noise) and the paper's landmark sizes
     /// (height 0.01–0.35 m).
+    pub const DEFAULT: Self = Self {
+        wall_tolerance_m: 0.04,
+        fit_inlier_tolerance_m: 0.03,
+        landmark_band_inward_m: 0.6,
+        landmark_band_outward_m: 0.3,
+        max_fit_range_m: 30.0,
+        far_wall_range_m: 65.0,
+        far_wall_tolerance_m: 0.6,
+        ransac_iterations: 16,
+        score_sample_points: 64,
+        min_wall_points: 12,
+        seed: 0x005e_ed0f_ca11,
+    };
+}
+
+impl Default for StripConfig {
     fn default() -> Self {
-        Self {
-            wall_tolerance_m: 0.04,
-            fit_inlier_tolerance_m: 0.03,
-            landmark_band_inward_m: 0.6,
-            landmark_band_outward_m: 0.3,
-            max_fit_range_m: 30.0,
-            far_wall_range_m: 65.0,
-            far_wall_tolerance_m: 0.6,
-            ransac_iterations: 16,
-            score_sample_points: 64,
-            min_wall_points: 12,
-            seed: 0x005e_ed0f_ca11,
-        }
+        Self::DEFAULT
     }
 }
 

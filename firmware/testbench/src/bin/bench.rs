@@ -13,14 +13,17 @@ use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::controller::Controller;
 use firmware_testbench::instruction_loop;
-use firmware_testbench::recorded::{BEAMS_PER_SCAN, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT};
+use firmware_testbench::recorded::{BEAMS_PER_SCAN, MAP_LANDMARKS, SCAN_COUNT};
 use firmware_testbench::replay;
 use firmware_testbench::stage_stats::{BenchStage, StageStats};
-use loc_core::map::TunnelMap;
 
 /// End-to-end budget per 1141-point scan, instructions (about 9 ms of a 168 MHz Cortex-M4F
 /// at one instruction per cycle, well under the 40 ms scan period at 25 Hz).
 const BUDGET_INSTRUCTIONS: u64 = 1_500_000;
+
+/// RAM budget of the controller: static RAM plus the stack's high-water mark, bytes (half
+/// of an STM32F407's 192 KiB, leaving the rest to the vehicle interface).
+const RAM_BUDGET_BYTES: u32 = 96 * 1024;
 
 fn fail() -> ! {
     SelectedBoard::exit(ExitStatus::Failure)
@@ -37,6 +40,7 @@ fn print_stats(name: &str, s: &StageStats) {
 
 #[entry]
 fn main() -> ! {
+    firmware::ram::paint_stack();
     let Some(board) = SelectedBoard::take() else {
         defmt::error!("board peripherals already taken");
         fail()
@@ -60,28 +64,32 @@ fn main() -> ! {
         defmt::println!("math {=str}: {=u64} per call", cost.name, cost.per_call);
     }
 
-    let (Some(map), Some(slot)) = (
-        cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
-        cortex_m::singleton!(: Option<Controller<'static>> = None),
-    ) else {
+    let Some(controller) = Controller::take() else {
         fail()
     };
-    let map_cost = match replay::load_map(&board, map) {
-        Ok(cost) => cost,
+    // The map the controller gets: the image in the board's map flash region (the recorded
+    // 120 m tunnel, or the same tunnel's 1 km or 10 km one the test script flashes instead),
+    // opened in place.
+    let (map, map_cost) = match replay::load_map(&board) {
+        Ok(m) => m,
         Err(e) => {
-            defmt::error!("map failed to load: {}", e);
+            defmt::error!("the map flash region holds no usable map image: {}", e);
             fail()
         }
     };
     defmt::println!(
-        "map: {=usize} bytes, {=usize} landmarks, loaded and indexed in {=u64}",
-        MAP_BYTES_LEN,
-        MAP_LANDMARKS,
+        "map: image of {=usize} bytes, {=usize} segments, {=usize} landmarks, checked in {=u64} and queried in place",
+        map.len_bytes(),
+        map.segment_count(),
+        map.landmark_count(),
         map_cost
     );
-    let map: &'static TunnelMap = map;
+    if map.landmark_count() < MAP_LANDMARKS {
+        defmt::error!("the map region holds a smaller map than the recording's");
+        fail()
+    }
 
-    let report = match replay::replay(&board, map, slot) {
+    let report = match replay::replay(&board, controller) {
         Ok(r) => r,
         Err(e) => {
             defmt::error!("replay failed: {}", e);
@@ -126,6 +134,30 @@ fn main() -> ! {
     }
 
     let mut ok = true;
+    let ram = firmware::ram::usage();
+    defmt::println!(
+        "ram: static {=u32} bytes + stack high-water mark {=u32} bytes = {=u32} bytes ({=u32} KiB) of {=u32} bytes of stack room",
+        ram.static_bytes,
+        ram.stack_high_water_bytes,
+        ram.total_bytes(),
+        ram.total_bytes().div_ceil(1024),
+        ram.stack_room_bytes
+    );
+    if ram.headroom_left && ram.total_bytes() <= RAM_BUDGET_BYTES {
+        defmt::println!(
+            "ram PASS: {=u32} <= {=u32} bytes",
+            ram.total_bytes(),
+            RAM_BUDGET_BYTES
+        );
+    } else {
+        defmt::println!(
+            "ram FAIL: {=u32} bytes (budget {=u32}; headroom left: {=bool})",
+            ram.total_bytes(),
+            RAM_BUDGET_BYTES,
+            ram.headroom_left
+        );
+        ok = false;
+    }
     let worst = report.end_to_end.max;
     if worst <= BUDGET_INSTRUCTIONS {
         defmt::println!(

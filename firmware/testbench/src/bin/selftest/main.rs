@@ -7,10 +7,15 @@ use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::controller::Controller;
 use firmware_testbench::test_harness::TestRunner;
-use loc_core::map::TunnelMap;
 use loc_core::scan::Scan;
+use static_cell::ConstStaticCell;
 
 mod tests;
+
+// The large buffers built at compile time (no copy of them on the stack).
+static SCAN: ConstStaticCell<Scan> = ConstStaticCell::new(Scan::new());
+static MAP_COPY: ConstStaticCell<[u8; firmware_testbench::recorded::MAP_BYTES_LEN]> =
+    ConstStaticCell::new([0; firmware_testbench::recorded::MAP_BYTES_LEN]);
 
 #[entry]
 fn main() -> ! {
@@ -18,19 +23,15 @@ fn main() -> ! {
         defmt::error!("board peripherals already taken");
         SelectedBoard::exit(ExitStatus::Failure)
     };
-    let (Some(map), Some(scan), Some(controller), Some(map_copy)) = (
-        cortex_m::singleton!(: TunnelMap = TunnelMap::new()),
-        cortex_m::singleton!(: Scan = Scan::new()),
-        cortex_m::singleton!(: Option<Controller<'static>> = None),
-        cortex_m::singleton!(: [u8; firmware_testbench::recorded::MAP_BYTES_LEN] =
-            [0; firmware_testbench::recorded::MAP_BYTES_LEN]),
-    ) else {
+    let (Some(scan), Some(controller), Some(map_copy)) =
+        (SCAN.try_take(), Controller::take(), MAP_COPY.try_take())
+    else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
     defmt::println!("selftest on {=str}", SelectedBoard::NAME);
     let mut runner = TestRunner::new();
     let memory = tests::Memory {
-        map,
+        map: None,
         scan,
         controller,
         map_copy,

@@ -12,19 +12,19 @@ use firmware_testbench::test_harness::{check, TestResult, TestRunner};
 use lidar_driver::{Frame, ScanData};
 use loc_core::geometry::Point2;
 use loc_core::localizer::{LocalizerConfig, StartPoseError};
-use loc_core::map::{MapError, MapQuery, TunnelMap};
+use loc_core::map::{MapError, MapImage, MapQuery};
 use loc_core::scan::Scan;
 use loc_core::scan::LMS511_MAX_BEAMS;
 use loc_core::strip::{strip_walls, PointLabel};
 
 /// The large buffers the tests share (statics owned by `main`).
 pub struct Memory {
-    /// The stored map.
-    pub map: &'static mut TunnelMap,
+    /// The program's map image, once opened.
+    pub map: Option<&'static MapImage<'static>>,
     /// A scan buffer.
     pub scan: &'static mut Scan,
     /// The controller under test.
-    pub controller: &'static mut Option<Controller<'static>>,
+    pub controller: &'static mut Controller<'static>,
     /// A RAM copy of the map bytes to damage.
     pub map_copy: &'static mut [u8; MAP_BYTES_LEN],
 }
@@ -32,7 +32,7 @@ pub struct Memory {
 /// Runs every test.
 pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memory) {
     let Memory {
-        map,
+        mut map,
         scan,
         controller,
         map_copy,
@@ -50,11 +50,11 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
     );
     runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
     runner.run("damaged_map_bytes_are_rejected", || {
-        damaged_map_is_rejected(map, map_copy)
+        damaged_map_is_rejected(map_copy)
     });
-    runner.run("map_loads_from_flash_bytes", || map_loads(board, map));
+    runner.run("map_loads_from_flash_bytes", || map_loads(board, &mut map));
     runner.run("map_flash_region_holds_the_flashed_map", || {
-        map_region_loads(board, map)
+        map_region_loads(board)
     });
     runner.run("recorded_scans_strip_to_both_walls", || scans_strip(scan));
     runner.run("telegram_scans_step_by_the_exact_beam_angle", || {
@@ -64,9 +64,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         "start_pose_record_and_its_damage",
         start_pose_record_and_its_damage,
     );
-    let map: &'static TunnelMap = map;
-    runner.run("controller_converges_on_recorded_telegrams", || {
-        controller_converges(board, map, controller)
+    runner.run("controller_converges_on_recorded_telegrams", || match map {
+        Some(_) => controller_converges(board, controller),
+        None => Err("no map to localise against (map_loads_from_flash_bytes failed)"),
     });
 }
 
@@ -178,51 +178,50 @@ fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     Ok(())
 }
 
-/// A flipped payload bit, a cut-off file and a foreign header are each refused with their
-/// own error, and leave the map empty.
-fn damaged_map_is_rejected(map: &mut TunnelMap, copy: &mut [u8; MAP_BYTES_LEN]) -> TestResult {
+/// A flipped bit, a cut-off image and a foreign header are each refused with their own
+/// error.
+fn damaged_map_is_rejected(copy: &mut [u8; MAP_BYTES_LEN]) -> TestResult {
     copy.copy_from_slice(recorded::MAP_BYTES);
-    // A bit flip deep in the payload (past the 16-byte header).
+    // A bit flip deep in the body (past the 64-byte header).
     let Some(b) = copy.get_mut(MAP_BYTES_LEN / 2) else {
         return Err("recorded map too short");
     };
     *b ^= 0x10;
     check(
         matches!(
-            map.load_from_bytes(copy),
+            MapImage::from_bytes(copy),
             Err(MapError::ChecksumMismatch { .. })
         ),
-        "a bit flip in the payload was not reported as a checksum mismatch",
+        "a bit flip in the image was not reported as a checksum mismatch",
     )?;
-    check(map.is_empty(), "a rejected load left data in the map")?;
     check(
         matches!(
-            map.load_from_bytes(&recorded::MAP_BYTES[..MAP_BYTES_LEN - 7]),
+            MapImage::from_bytes(&recorded::MAP_BYTES[..MAP_BYTES_LEN - 7]),
             Err(MapError::Truncated { .. })
         ),
-        "a truncated map was not reported as truncated",
+        "a truncated image was not reported as truncated",
     )?;
     copy.copy_from_slice(recorded::MAP_BYTES);
     copy[0] = b'X';
     check(
-        matches!(map.load_from_bytes(copy), Err(MapError::BadMagic { .. })),
-        "a foreign header was not reported as bad magic",
-    )?;
-    check(map.is_empty(), "a rejected load left data in the map")
+        matches!(MapImage::from_bytes(copy), Err(MapError::NotAnImage { .. })),
+        "a foreign header was not reported as not an image",
+    )
 }
 
-/// The flashed map loads, holds the recorded landmarks, and answers a query: from the
-/// centre line of the 5 m tunnel the nearest wall is 2.5 m away.
-fn map_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
-    let cost = replay::load_map(board, map).map_err(|_| "the flashed map did not load")?;
+/// The flashed map opens in place, holds the recorded landmarks, and answers a query: from
+/// the centre line of the 5 m tunnel the nearest wall is 2.5 m away.
+fn map_loads(board: &SelectedBoard, slot: &mut Option<&'static MapImage<'static>>) -> TestResult {
+    let (map, cost) = replay::load_map(board).map_err(|_| "the flashed map did not open")?;
+    *slot = Some(map);
     defmt::println!(
-        "  map of {=usize} bytes loaded in {=u64}",
+        "  map image of {=usize} bytes checked in {=u64}",
         MAP_BYTES_LEN,
         cost
     );
     check(
-        map.landmarks().len() == MAP_LANDMARKS,
-        "loaded map has a different landmark count than the recorded one",
+        map.landmark_count() == MAP_LANDMARKS,
+        "the map has a different landmark count than the recorded one",
     )?;
     // Between landmarks? The nearest geometry is a wall or a landmark, so at most 2.5 m.
     let hit = map
@@ -311,12 +310,8 @@ fn start_pose_record_and_its_damage() -> TestResult {
 
 /// From the recorded start pose (0.34 m and 0.02 rad off), the controller pulls in and
 /// stays close to the truth over the recorded drive with 2 % odometry scale error.
-fn controller_converges(
-    board: &SelectedBoard,
-    map: &'static TunnelMap,
-    slot: &mut Option<Controller<'static>>,
-) -> TestResult {
-    let report = replay::replay(board, map, slot).map_err(|_| "replay could not run")?;
+fn controller_converges(board: &SelectedBoard, controller: &mut Controller<'static>) -> TestResult {
+    let report = replay::replay(board, controller).map_err(|_| "replay could not run")?;
     let initial_error_m = loc_core::math::hypot(INITIAL_ERROR[0], INITIAL_ERROR[1]);
     defmt::println!(
         "  initial error {=f32} m; final {=f32} m, {=f32} rad; worst over the second half {=f32} m; {=u32} tracking, {=u32} degenerate, {=u32} rejected, {=u32} map unconfirmed",
@@ -352,13 +347,13 @@ fn controller_converges(
 /// The board's map flash region holds the map and the start pose the test runner put there
 /// (QEMU `-device loader,file=…/map.bin,addr=0x00300000` and
 /// `…/start_pose.bin,addr=0x003FF000`), and the controller's start-up reads both.
-fn map_region_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
+fn map_region_loads(board: &SelectedBoard) -> TestResult {
     let region = board.map_region();
     check(
         region.get(..MAP_BYTES_LEN) == Some(recorded::MAP_BYTES),
         "map flash region does not hold the recorded map (run QEMU with -device loader,file=…/map.bin,addr=0x00300000)",
     )?;
-    controller::load_map(region, map).map_err(|_| "map in the flash region did not load")?;
+    let map = controller::load_map(region).map_err(|_| "map in the flash region did not open")?;
     let (source, start, _) =
         controller::start_pose(region, map).map_err(|_| "no start pose from the flash region")?;
     let expected = replay::start_pose().map_err(|_| "the recorded start pose did not read")?;
@@ -369,9 +364,5 @@ fn map_region_loads(board: &SelectedBoard, map: &mut TunnelMap) -> TestResult {
     check(
         region.len() > START_POSE_BLOCK_BYTES + MAP_BYTES_LEN,
         "map region too small for the map and the start-pose block",
-    )?;
-    // Leave the recorded map loaded for the tests after this one.
-    replay::load_map(board, map)
-        .map(|_| ())
-        .map_err(|_| "the flashed map did not reload")
+    )
 }
