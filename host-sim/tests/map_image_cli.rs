@@ -25,7 +25,11 @@ fn a_map_file_converts_to_an_image_that_answers_as_the_map() {
         "--out",
         file.to_str().unwrap(),
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let out = host_sim(&[
         "export-map",
         "--map",
@@ -35,7 +39,11 @@ fn a_map_file_converts_to_an_image_that_answers_as_the_map() {
         "--out",
         "-",
     ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let image = MapImage::from_bytes(&out.stdout).unwrap();
     let mut map = Box::<TunnelMap>::default();
     map.load_from_bytes(&std::fs::read(&file).unwrap()).unwrap();
@@ -44,13 +52,26 @@ fn a_map_file_converts_to_an_image_that_answers_as_the_map() {
     for i in 0..400 {
         let p = Point2::new(i as f32 * 0.5, (i % 7) as f32 - 3.0);
         assert_eq!(image.nearest(p, 4.0), map.nearest(p, 4.0));
-        assert_eq!(image.raycast(p, i as f32 * 0.1, 60.0), map.raycast(p, i as f32 * 0.1, 60.0));
+        assert_eq!(
+            image.raycast(p, i as f32 * 0.1, 60.0),
+            map.raycast(p, i as f32 * 0.1, 60.0)
+        );
     }
     // An image is not a map file: `--map` says what it got.
     let img = dir.join("map.image");
     std::fs::write(&img, &out.stdout).unwrap();
-    let out = host_sim(&["export-map", "--map", img.to_str().unwrap(), "--format", "image"]);
+    let out = host_sim(&[
+        "export-map",
+        "--map",
+        img.to_str().unwrap(),
+        "--format",
+        "image",
+    ]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("LCMI"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("LCMI"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
