@@ -5,6 +5,8 @@
 # 124 on time-out.
 #   usage: qemu-run.sh ELF [QEMU ARGS...]
 #   env:   QEMU_TIMEOUT_S (default 300), QEMU_SERIAL (UART0, default null),
+#          QEMU_ODOMETRY (the bytes UART1 receives, default the recording's
+#          odometry_frames.bin: one odometry frame per scan),
 #          QEMU_MAP (the map image file flashed, default the recording's map.bin; the
 #          testbench also writes map_1km.bin and map_10km.bin, the same tunnel longer)
 # The testbench's recorded map and start pose go into the map flash region (the map at
@@ -18,12 +20,23 @@ loader=()
 [ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/${QEMU_MAP:-map.bin},addr=0x00300000"
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 raw=$(mktemp)
-trap 'rm -f "$raw"' EXIT
+fifo_dir=$(mktemp -d)
+trap 'rm -f "$raw"; rm -rf "$fifo_dir"; kill $(jobs -p) 2>/dev/null' EXIT
+# UART1 (the odometry port) reads the recorded odometry frames, through a pipe chardev
+# (QEMU 7's file chardev cannot take input): QEMU reads $fifo_dir/odometry.in.
+odometry=${QEMU_ODOMETRY:-${out_dir:+$out_dir/odometry_frames.bin}}
+uart1=(-serial null)
+if [ -n "$odometry" ] && [ -f "$odometry" ]; then
+  mkfifo "$fifo_dir/odometry.in" "$fifo_dir/odometry.out"
+  cat "$odometry" >"$fifo_dir/odometry.in" &
+  cat "$fifo_dir/odometry.out" >/dev/null &
+  uart1=(-chardev "pipe,id=odometry,path=$fifo_dir/odometry" -serial chardev:odometry)
+fi
 timeout "${QEMU_TIMEOUT_S:-300}" qemu-system-arm \
   -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \
   -icount shift=0 \
-  -serial "${QEMU_SERIAL:-null}" \
+  -serial "${QEMU_SERIAL:-null}" "${uart1[@]}" \
   "${loader[@]}" "$@" \
   -kernel "$elf" >"$raw"
 status=$?

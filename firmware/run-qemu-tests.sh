@@ -47,6 +47,13 @@ run_qemu() {
   QEMU_SERIAL="file:$uart" ./qemu-run.sh "$elf" "$@"
 }
 
+echo "--> controller-wire (the vehicle interface frames) on the host"
+if cargo test -p controller-wire --target "$(rustc -vV | sed -n 's/^host: //p')"; then
+  pass "controller-wire host tests"
+else
+  fail "controller-wire host tests"
+fi
+
 echo "--> build (release, thumbv7em-none-eabihf, board mps2-an386: product and testbench)"
 if cargo build --release --workspace --bins; then pass "build"; else fail "build"; fi
 echo "--> clippy (firmware and testbench, -D warnings)"
@@ -178,6 +185,14 @@ if (cd .. && cargo build --release --quiet -p lms5xx-emulator) \
       pass "controller localised $HIL_SCANS emulated LMS511 scans over UART0"
     else
       fail "controller against the emulator (QEMU status $status, $tracking tracking)"
+    fi
+    # No odometry wired in this run (UART1 unconnected): it must say it predicts with
+    # constant velocity, on every pose frame.
+    if grep -q 'odometry: none within' "$work/controller.log" \
+      && [ "$(grep -c 'motion ConstantVelocity' "$work/controller.log")" -eq "$HIL_SCANS" ]; then
+      pass "controller without odometry says so and predicts with constant velocity"
+    else
+      fail "controller without odometry: no constant-velocity fallback reported"
     fi
     # Its RAM over that run, session buffer included: static + stack high-water mark.
     ram=$(sed -nE 's/.*= ([0-9]+) bytes \(headroom left: true\).*/\1/p' "$work/controller.log" | tail -1)

@@ -13,10 +13,13 @@
 //! walls, heading along them) with 1 m / 0.1 rad 1σ; a damaged start pose is reported and
 //! treated the same way. (Relocalisation without a start pose comes with the next issues.)
 //!
-//! **Motion prediction.** [`Controller::predict`] takes wheel odometry when the vehicle
-//! interface gives it; without it each scan is predicted with the motion between the two
-//! previous estimates (constant velocity) and the uncertainty of an unmeasured motion
-//! ([`UNMEASURED_MOTION_SIGMA`] per scan).
+//! **Motion prediction.** The vehicle's wheel odometry arrives on the board's odometry port
+//! (`controller_wire::OdometryFrame`, see [`crate::odometry`]); each scan is predicted with
+//! the odometry's motion since the previous scan. Without fresh odometry (none wired, the
+//! link down for more than [`ODOMETRY_STALE_MS`]) the scan is predicted with the motion
+//! between the two previous estimates (constant velocity) and the uncertainty of an
+//! unmeasured motion ([`UNMEASURED_MOTION_SIGMA`] per scan), and the pose frames say so
+//! (`MotionSource::ConstantVelocity`).
 
 use lidar_driver::session::{Event, Session, SessionConfig};
 use lidar_driver::transport::FixedLink;
@@ -35,7 +38,8 @@ use static_cell::ConstStaticCell;
 
 use crate::board::{Board, ExitStatus};
 use crate::flash_map::{FlashMap, MAP};
-use crate::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
+use crate::odometry::{OdometryInput, ODOMETRY_STALE_MS};
+use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
@@ -118,6 +122,7 @@ pub struct Controller<'m> {
     scan: Scan,
     motion: OdometryIncrement,
     last_pose: Option<Pose2>,
+    motion_source: MotionSource,
 }
 
 impl<'m> Controller<'m> {
@@ -133,6 +138,7 @@ impl<'m> Controller<'m> {
                 dtheta_rad: 0.0,
             },
             last_pose: None,
+            motion_source: MotionSource::None,
         }
     }
 
@@ -141,6 +147,7 @@ impl<'m> Controller<'m> {
         self.localizer.initialise(start.pose, start.covariance())?;
         self.motion = OdometryIncrement::default();
         self.last_pose = None;
+        self.motion_source = MotionSource::None;
         Ok(())
     }
 
@@ -154,6 +161,10 @@ impl<'m> Controller<'m> {
     /// [`UNMEASURED_MOTION_SIGMA`]. A rejected (implausible) increment leaves the state as
     /// it was.
     pub fn predict(&mut self, odometry: Option<&OdometryIncrement>) {
+        self.motion_source = match odometry {
+            Some(_) => MotionSource::Odometry,
+            None => MotionSource::ConstantVelocity,
+        };
         let _ = match odometry {
             Some(inc) => self.localizer.predict_odometry(inc),
             None => {
@@ -187,14 +198,19 @@ impl<'m> Controller<'m> {
             y_m: pose.y_m,
             theta_rad: pose.theta_rad,
             covariance_upper: [c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]],
-            status: PoseStatus::of(&status),
+            status: pose_status(&status),
+            motion: self.motion_source,
         }
     }
 
-    /// One scan as the vehicle runs it: [`Controller::predict`] (no odometry yet),
-    /// [`Controller::load_scan`], [`Controller::localise`].
-    pub fn on_scan(&mut self, telegram: &ScanData<'_>) -> Result<PoseFrame, ScanInputError> {
-        self.predict(None);
+    /// One scan as the vehicle runs it: [`Controller::predict`] (with `odometry` when fresh
+    /// odometry is at hand), [`Controller::load_scan`], [`Controller::localise`].
+    pub fn on_scan(
+        &mut self,
+        telegram: &ScanData<'_>,
+        odometry: Option<&OdometryIncrement>,
+    ) -> Result<PoseFrame, ScanInputError> {
+        self.predict(odometry);
         self.load_scan(telegram)?;
         Ok(self.localise(u32::from(telegram.header.scan_counter), &mut ()))
     }
@@ -212,17 +228,15 @@ impl Controller<'static> {
     }
 }
 
-impl PoseStatus {
-    /// The wire status of a localiser status.
-    pub fn of(status: &Status) -> Self {
-        match status {
-            Status::Tracking => PoseStatus::Tracking,
-            Status::Degenerate { .. } => PoseStatus::Degenerate,
-            Status::NotInitialised => PoseStatus::NotInitialised,
-            Status::MapUnconfirmed { .. } => PoseStatus::MapUnconfirmed,
-            // Any other status (a newer loc-core's): the scan did not update the pose.
-            _ => PoseStatus::OdometryOnly,
-        }
+/// The wire status of a localiser status.
+pub fn pose_status(status: &Status) -> PoseStatus {
+    match status {
+        Status::Tracking => PoseStatus::Tracking,
+        Status::Degenerate { .. } => PoseStatus::Degenerate,
+        Status::NotInitialised => PoseStatus::NotInitialised,
+        Status::MapUnconfirmed { .. } => PoseStatus::MapUnconfirmed,
+        // Any other status (a newer loc-core's): the scan did not update the pose.
+        _ => PoseStatus::OdometryOnly,
     }
 }
 
@@ -266,27 +280,46 @@ pub fn run<B: Board>(
     scan_limit: Option<u32>,
 ) -> ! {
     let mut session = Session::new(session_buf, SessionConfig::default());
+    let mut odometry = OdometryInput::new();
     let mut scans = 0u32;
+    // Whether the previous scan had odometry (`None` before the first scan): each change is
+    // logged once.
+    let mut had_odometry: Option<bool> = None;
     loop {
         // The session reads the clock a few times per poll; one reading per poll suffices.
         let now_ms = board.now_ms();
         let clock = move || now_ms;
+        odometry.poll(board.odometry_serial(), now_ms);
         let frame = match session.poll(&mut FixedLink(board.serial()), &clock) {
             Event::Scan(telegram) => {
+                let increment = odometry.increment_for_scan(now_ms);
+                if had_odometry != Some(increment.is_some()) {
+                    had_odometry = Some(increment.is_some());
+                    if increment.is_some() {
+                        defmt::info!("odometry: predicting with the vehicle's odometry");
+                    } else {
+                        defmt::warn!(
+                            "odometry: none within {=u64} ms: predicting with constant velocity ({})",
+                            ODOMETRY_STALE_MS,
+                            odometry.counts()
+                        );
+                    }
+                }
                 let t0 = board.counter_now();
-                let result = controller.on_scan(&telegram);
+                let result = controller.on_scan(&telegram, increment.as_ref());
                 let cost = board.counter_now() - t0;
                 match result {
                     Ok(frame) => {
                         defmt::info!(
-                            "scan {=u32}: ({=f32}, {=f32}, {=f32}) {} in {=u64} {}",
+                            "scan {=u32}: ({=f32}, {=f32}, {=f32}) {} in {=u64} {}, motion {}",
                             frame.sequence,
                             frame.x_m,
                             frame.y_m,
                             frame.theta_rad,
                             frame.status,
                             cost,
-                            B::COUNTER_UNIT
+                            B::COUNTER_UNIT,
+                            frame.motion
                         );
                         if frame.status == PoseStatus::OdometryOnly {
                             defmt::info!("  scan not used: {}", controller.localizer().status());
@@ -314,6 +347,7 @@ pub fn run<B: Board>(
             scans += 1;
             if scan_limit.is_some_and(|limit| scans >= limit) {
                 let ram = crate::ram::usage();
+                defmt::println!("controller: odometry {}", odometry.counts());
                 defmt::println!(
                     "controller: {=u32} scans localised, stopping (test run); ram: static {=u32} bytes + stack high-water mark {=u32} bytes = {=u32} bytes (headroom left: {=bool})",
                     scans,

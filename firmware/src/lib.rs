@@ -8,7 +8,9 @@
 //! - [`controller`]: the loop a vehicle runs (LMS session, localiser, pose frames), the
 //!   stored map and the start pose read from the map flash region;
 //! - [`flash_map`]: the map image read in place from the map flash region;
-//! - [`pose_frame`]: the pose output frame;
+//! - [`odometry`]: the vehicle's wheel odometry from its serial port, per scan;
+//! - the vehicle interface's frames (pose out, odometry in) are the `controller-wire` crate
+//!   beside this one, shared with the host tools;
 //! - [`fault`]: panic and HardFault handlers;
 //! - [`ram`]: static RAM and the stack's high-water mark (painted stack).
 //!
@@ -21,7 +23,7 @@ pub mod board;
 pub mod controller;
 pub mod fault;
 pub mod flash_map;
-pub mod pose_frame;
+pub mod odometry;
 pub mod ram;
 
 pub use board::{Board, ExitStatus, SelectedBoard};

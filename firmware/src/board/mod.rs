@@ -4,10 +4,10 @@
 //! The application (benchmark, self-tests, controller loop) is written against [`Board`]
 //! only. Exactly one board is compiled in, chosen by a cargo feature:
 //!
-//! | feature | board | UART | counter | log transport |
-//! |---|---|---|---|---|
-//! | `board-mps2-an386` (default) | QEMU MPS2 AN386, Cortex-M4F | CMSDK UART0 | SysTick under `-icount shift=0` (instructions) | defmt over semihosting |
-//! | `board-nucleo-h743zi` | ST NUCLEO-H743ZI2, STM32H743ZI Cortex-M7 | USART3 (ST-LINK VCP) | DWT CYCCNT (core cycles) | defmt over RTT |
+//! | feature | board | lidar + pose UART | odometry UART | counter | log transport |
+//! |---|---|---|---|---|---|
+//! | `board-mps2-an386` (default) | QEMU MPS2 AN386, Cortex-M4F | CMSDK UART0 | CMSDK UART1 | SysTick under `-icount shift=0` (instructions) | defmt over semihosting |
+//! | `board-nucleo-h743zi` | ST NUCLEO-H743ZI2, STM32H743ZI Cortex-M7 | USART3 (ST-LINK VCP) | USART2 (PD5 TX, PD6 RX) | DWT CYCCNT (core cycles) | defmt over RTT |
 
 #[cfg(all(feature = "board-mps2-an386", feature = "board-nucleo-h743zi"))]
 compile_error!(
@@ -64,6 +64,13 @@ pub trait Board {
 
     /// The serial port wired to the lidar and the pose consumer.
     fn serial(&mut self) -> &mut Self::Serial;
+
+    /// The serial port the vehicle's wheel odometry arrives on
+    /// (`controller_wire::OdometryFrame`s); read without blocking (`read_ready` first).
+    type OdometrySerial: embedded_io::Read + embedded_io::ReadReady;
+
+    /// The odometry port.
+    fn odometry_serial(&mut self) -> &mut Self::OdometrySerial;
 
     /// A monotonic 64-bit count of [`Board::COUNTER_UNIT`] since start-up. The resolution is
     /// board-specific ([`Board::COUNTER_RESOLUTION`]); differences of two reads measure the

@@ -117,6 +117,42 @@ fn write_long_map(out: &Path, length_m: f32, name: &str) {
     fs::write(out.join(name), &bytes).expect("write the long map image");
 }
 
+/// The odometry the vehicle sends on its odometry port: one `controller-wire` frame per scan
+/// with the cumulative odometry pose (the recorded increments, 2 % scale error included,
+/// integrated from the origin of the odometry frame), 40 ms apart, and line garbage after the
+/// tenth (which a reader must drop as one malformed frame).
+fn odometry_frames(spec: &TunnelSpec) -> Vec<u8> {
+    use controller_wire::{OdometryFrame, MAX_ODOMETRY_FRAME_BYTES};
+    let mut bytes = Vec::new();
+    let mut odo = Pose2::new(0.0, 0.0, 0.0);
+    let mut previous: Option<Pose2> = None;
+    for k in 0..SCANS {
+        let pose = true_pose(spec, k);
+        if let Some(p) = previous {
+            let inc = OdometryIncrement::between(&p, &pose);
+            odo = odo.compose(&Pose2::new(
+                inc.dx_m * ODOMETRY_SCALE,
+                inc.dy_m * ODOMETRY_SCALE,
+                inc.dtheta_rad,
+            ));
+        }
+        previous = Some(pose);
+        let frame = OdometryFrame {
+            sequence: k as u32,
+            time_us: 40_000 * k as u64,
+            x_m: odo.x_m,
+            y_m: odo.y_m,
+            theta_rad: odo.theta_rad,
+        };
+        let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
+        bytes.extend_from_slice(frame.encode(&mut buf).expect("odometry frame encodes"));
+        if k == 10 {
+            bytes.extend_from_slice(&[0x13, 0x37, 0x42, 0x00]);
+        }
+    }
+    bytes
+}
+
 /// Writes the recording into `out`.
 pub fn write_recordings(out: &Path) {
     let spec = TunnelSpec::straight(TUNNEL_LENGTH_M).with_landmarks(LandmarkLayout::paper(
@@ -177,6 +213,8 @@ pub fn write_recordings(out: &Path) {
         previous = Some(pose);
     }
     fs::write(out.join("scans_colab.bin"), colab).expect("write scans_colab.bin");
+    fs::write(out.join("odometry_frames.bin"), odometry_frames(&spec))
+        .expect("write odometry_frames.bin");
     let truth0 = true_pose(&spec, 0);
     let start = StartPose {
         pose: Pose2::new(

@@ -24,6 +24,8 @@ pub const UART0_BASE: usize = 0x4000_4000;
 pub const PCLK_HZ: u32 = 25_000_000;
 /// UART0 line rate, baud (QEMU ignores it, but the divisor must be at least 16 to transmit).
 pub const UART0_BAUD: u32 = 115_200;
+/// Base address of UART1 (CMSDK APB UART), the odometry port: QEMU's second `-serial`.
+pub const UART1_BASE: usize = 0x4000_5000;
 
 /// Start of the stored-map flash region: the last MiB of the 4 MiB code memory
 /// (`memory/mps2-an386.x` gives the program the first 3 MiB). Load a map file there with
@@ -32,26 +34,35 @@ pub const MAP_REGION_ADDR: usize = 0x0030_0000;
 /// Length of the stored-map flash region, bytes.
 pub const MAP_REGION_LEN: usize = 0x0010_0000;
 
-/// The MPS2 AN386 board: UART0 and the SysTick instruction counter.
+/// The MPS2 AN386 board: UART0 (lidar, poses), UART1 (odometry) and the SysTick
+/// instruction counter.
 pub struct Mps2An386 {
     uart0: CmsdkUart,
+    uart1: CmsdkUart,
     counter: SysTickCounter,
 }
 
 impl Board for Mps2An386 {
     type Serial = CmsdkUart;
+    type OdometrySerial = CmsdkUart;
     const NAME: &'static str = "mps2-an386 (QEMU, Cortex-M4F)";
     const COUNTER_UNIT: CounterUnit = CounterUnit::Instructions;
     const COUNTER_RESOLUTION: u64 = INSTRUCTIONS_PER_TICK;
 
-    /// Sets up UART0 (115200 8N1, TX and RX enabled) and the SysTick counter.
+    /// Sets up UART0 and UART1 (115200 8N1, TX and RX enabled) and the SysTick counter.
     fn take() -> Option<Self> {
         let cp = cortex_m::Peripherals::take()?;
         // SAFETY: UART0_BASE is the CMSDK UART0 of this board; `Peripherals::take` above
         // succeeded, so this is the only place the board (and its UART) is constructed.
         let uart0 = unsafe { CmsdkUart::new(UART0_BASE, PCLK_HZ, UART0_BAUD) };
+        // SAFETY: as above, for UART1.
+        let uart1 = unsafe { CmsdkUart::new(UART1_BASE, PCLK_HZ, UART0_BAUD) };
         let counter = SysTickCounter::start(cp.SYST);
-        Some(Self { uart0, counter })
+        Some(Self {
+            uart0,
+            uart1,
+            counter,
+        })
     }
 
     fn now_ms(&self) -> u64 {
@@ -68,6 +79,10 @@ impl Board for Mps2An386 {
 
     fn serial(&mut self) -> &mut CmsdkUart {
         &mut self.uart0
+    }
+
+    fn odometry_serial(&mut self) -> &mut CmsdkUart {
+        &mut self.uart1
     }
 
     fn counter_now(&self) -> u64 {

@@ -1,7 +1,7 @@
-//! USART3 of the STM32H743 as an `embedded-io` byte stream, over the HAL's polled serial.
+//! A USART of the STM32H743 (USART3: lidar and poses; USART2: odometry) as an
+//! `embedded-io` byte stream, over the HAL's polled serial.
 
 use embedded_hal_02::serial::{Read as _, Write as _};
-use stm32h7xx_hal::pac::USART3;
 use stm32h7xx_hal::serial::{Error as HalError, Serial};
 
 /// What went wrong on the USART.
@@ -43,16 +43,20 @@ impl From<HalError> for UsartError {
     }
 }
 
-/// USART3, polled.
-pub struct Usart3 {
-    serial: Serial<USART3>,
+/// A USART, polled.
+pub struct Usart<U> {
+    serial: Serial<U>,
     /// A byte `read_ready` pulled out of the receiver and not yet handed to `read`.
     pending: Option<u8>,
 }
 
-impl Usart3 {
+impl<U> Usart<U>
+where
+    Serial<U>:
+        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+{
     /// Wraps the HAL's configured serial port.
-    pub fn new(serial: Serial<USART3>) -> Self {
+    pub fn new(serial: Serial<U>) -> Self {
         Self {
             serial,
             pending: None,
@@ -71,11 +75,19 @@ impl Usart3 {
     }
 }
 
-impl embedded_io::ErrorType for Usart3 {
+impl<U> embedded_io::ErrorType for Usart<U>
+where
+    Serial<U>:
+        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+{
     type Error = UsartError;
 }
 
-impl embedded_io::Write for Usart3 {
+impl<U> embedded_io::Write for Usart<U>
+where
+    Serial<U>:
+        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+{
     fn write(&mut self, buf: &[u8]) -> Result<usize, UsartError> {
         for &b in buf {
             nb::block!(self.serial.write(b)).map_err(|_| UsartError::Line)?;
@@ -88,7 +100,11 @@ impl embedded_io::Write for Usart3 {
     }
 }
 
-impl embedded_io::ReadReady for Usart3 {
+impl<U> embedded_io::ReadReady for Usart<U>
+where
+    Serial<U>:
+        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+{
     fn read_ready(&mut self) -> Result<bool, UsartError> {
         if self.pending.is_none() {
             self.pending = self.poll_byte()?;
@@ -97,7 +113,11 @@ impl embedded_io::ReadReady for Usart3 {
     }
 }
 
-impl embedded_io::Read for Usart3 {
+impl<U> embedded_io::Read for Usart<U>
+where
+    Serial<U>:
+        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+{
     /// Blocks until at least one byte arrived, then returns every byte already waiting.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, UsartError> {
         let mut n = 0;

@@ -1,8 +1,9 @@
 //! The on-target tests themselves, one function each, registered in [`run_all`].
 
+use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 use firmware::board::{Board, CounterUnit, SelectedBoard};
 use firmware::controller::{self, Controller, StartSource, START_POSE_BLOCK_BYTES};
-use firmware::pose_frame::{PoseFrame, PoseStatus, MAX_FRAME_BYTES};
+use firmware::odometry::OdometryInput;
 use firmware_testbench::instruction_loop;
 use firmware_testbench::recorded::{
     self, BEAMS_PER_SCAN, INITIAL_ERROR, MAP_BYTES_LEN, MAP_LANDMARKS, SCAN_COUNT,
@@ -49,6 +50,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         pose_frame_rejects_corruption,
     );
     runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
+    runner.run("odometry_frames_arrive_on_uart1", || {
+        odometry_arrives(board)
+    });
     runner.run("damaged_map_bytes_are_rejected", || {
         damaged_map_is_rejected(map_copy)
     });
@@ -121,6 +125,7 @@ fn sample_frame() -> PoseFrame {
         theta_rad: 0.125,
         covariance_upper: [1e-3, 0.0, 0.0, 2e-3, 0.0, 1e-4],
         status: PoseStatus::Tracking,
+        motion: MotionSource::Odometry,
     }
 }
 
@@ -176,6 +181,60 @@ fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
         encoded
     );
     Ok(())
+}
+
+/// The recorded odometry, sent to UART1 as the vehicle would (`odometry_frames.bin`: one
+/// cumulative-pose frame per scan with line garbage after the tenth, fed by the runner with
+/// `-chardev file,input-path=…`), arrives whole: every frame decoded, the garbage counted as
+/// one malformed frame, and the motion between frames is the recorded odometry.
+fn odometry_arrives(board: &mut SelectedBoard) -> TestResult {
+    let mut input = OdometryInput::new();
+    let mut previous_scan: Option<loc_core::filter::OdometryIncrement> = None;
+    let mut k = 0usize;
+    let deadline_ms = board.now_ms() + 2_000;
+    while k < SCAN_COUNT && board.now_ms() < deadline_ms {
+        // Byte by byte, so each frame is taken as it completes.
+        use embedded_io::{Read, ReadReady};
+        let port = board.odometry_serial();
+        if !port.read_ready().map_err(|_| "UART1 error")? {
+            continue;
+        }
+        let mut byte = [0u8; 1];
+        port.read(&mut byte).map_err(|_| "UART1 read failed")?;
+        let before = input.counts().frames;
+        input.push(byte[0], board.now_ms());
+        if input.counts().frames == before {
+            continue;
+        }
+        // One frame per scan: take it as the odometry at scan k.
+        let increment = input.increment_for_scan(board.now_ms());
+        if k > 0 {
+            let inc = increment.ok_or("fresh odometry gave no increment")?;
+            let [dx, dy, dth] = recorded::ODOMETRY[k];
+            check(
+                loc_core::math::abs(inc.dx_m - dx) < 1e-4
+                    && loc_core::math::abs(inc.dy_m - dy) < 1e-4
+                    && loc_core::math::abs(inc.dtheta_rad - dth) < 1e-5,
+                "the increment between two odometry frames is not the recorded odometry",
+            )?;
+        }
+        previous_scan = increment;
+        k += 1;
+    }
+    let counts = input.counts();
+    defmt::println!(
+        "  odometry on uart1: {} (last increment {})",
+        counts,
+        defmt::Debug2Format(&previous_scan)
+    );
+    check(
+        counts.frames as usize == SCAN_COUNT,
+        "not every odometry frame arrived on UART1 (run QEMU with a second -serial fed odometry_frames.bin)",
+    )?;
+    check(
+        counts.malformed == 1 && counts.lost == 0,
+        "the line garbage was not counted as one malformed frame",
+    )
 }
 
 /// A flipped bit, a cut-off image and a foreign header are each refused with their own

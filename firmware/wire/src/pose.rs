@@ -11,7 +11,8 @@ use serde::{Deserialize, Serialize};
 pub const MAX_FRAME_BYTES: usize = 96;
 
 /// Localiser status as sent on the wire.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, defmt::Format)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum PoseStatus {
     /// The last scan matched and updated every direction of the estimate.
     Tracking,
@@ -31,8 +32,22 @@ pub enum PoseStatus {
     MapUnconfirmed,
 }
 
+/// What the motion prediction before the scan rested on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MotionSource {
+    /// Wheel odometry from the vehicle ([`crate::OdometryFrame`]s on the odometry port).
+    Odometry,
+    /// No fresh odometry: the motion between the two previous estimates (constant
+    /// velocity), with a generous uncertainty. Check the odometry link.
+    ConstantVelocity,
+    /// No motion was predicted (no map, or before the first scan).
+    None,
+}
+
 /// One pose estimate, world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, defmt::Format)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct PoseFrame {
     /// Scan sequence number (the scanner's telegram counter, or a local count).
     pub sequence: u32,
@@ -47,10 +62,13 @@ pub struct PoseFrame {
     pub covariance_upper: [f32; 6],
     /// What the estimate rests on.
     pub status: PoseStatus,
+    /// What the motion prediction before this scan rested on.
+    pub motion: MotionSource,
 }
 
 /// Why a frame could not be encoded or decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameError {
     /// The output buffer is shorter than the frame: pass a buffer of [`MAX_FRAME_BYTES`].
     BufferTooSmall,
@@ -86,6 +104,7 @@ impl PoseFrame {
             theta_rad: 0.0,
             covariance_upper: [0.0; 6],
             status: PoseStatus::NoMap,
+            motion: MotionSource::None,
         }
     }
 

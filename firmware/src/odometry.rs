@@ -1,0 +1,126 @@
+//! The vehicle's wheel odometry as the controller takes it: `controller_wire::OdometryFrame`s
+//! read from the board's odometry port without blocking, and the motion between two scans
+//! from the latest frames before each.
+//!
+//! The frames carry the vehicle's cumulative odometry pose, so the motion between scans is
+//! the difference of two poses: frames lost on the line lose no motion. Odometry is used
+//! for a scan only when a frame arrived within [`ODOMETRY_STALE_MS`] before it and one was at
+//! hand at the previous scan; otherwise the controller predicts with constant velocity and
+//! its pose frames say so (`MotionSource::ConstantVelocity`).
+//!
+//! Timing: the latest frame received before the scan telegram is taken as the odometry at
+//! the scan (the telegram arrives a few milliseconds after the scan ends; at 2 m/s that is
+//! millimetres, within the odometry noise model). On real silicon the port must not lose
+//! bytes while a scan is processed (≈ 9 ms at 168 MHz, ≈ 100 bytes at 115200 baud):
+//! receive by DMA or interrupt into a ring buffer; under QEMU the UART holds the line.
+
+use controller_wire::{Assembled, FrameAssembler, OdometryFrame, MAX_ODOMETRY_FRAME_BYTES};
+use embedded_io::{Read, ReadReady};
+use loc_core::filter::OdometryIncrement;
+use loc_core::geometry::Pose2;
+
+/// A frame older than this at a scan is stale, milliseconds (10 frames missed at 50 Hz).
+pub const ODOMETRY_STALE_MS: u64 = 200;
+
+/// Counts of what arrived on the odometry port.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, defmt::Format)]
+pub struct OdometryCounts {
+    /// Frames decoded and used.
+    pub frames: u32,
+    /// Frames that did not decode, were too long, or held non-finite values (dropped).
+    pub malformed: u32,
+    /// Frames missing by the sender's sequence numbers.
+    pub lost: u32,
+}
+
+/// The odometry input: frame assembly, the latest frame, and the frame at the last scan.
+#[derive(Debug)]
+pub struct OdometryInput {
+    assembler: FrameAssembler<MAX_ODOMETRY_FRAME_BYTES>,
+    /// The latest frame and when it arrived (board milliseconds).
+    latest: Option<(OdometryFrame, u64)>,
+    /// The frame the previous scan was predicted to.
+    at_last_scan: Option<OdometryFrame>,
+    counts: OdometryCounts,
+}
+
+impl Default for OdometryInput {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn pose(f: &OdometryFrame) -> Pose2 {
+    Pose2::new(f.x_m, f.y_m, f.theta_rad)
+}
+
+impl OdometryInput {
+    /// No odometry yet.
+    pub const fn new() -> Self {
+        Self {
+            assembler: FrameAssembler::new(),
+            latest: None,
+            at_last_scan: None,
+            counts: OdometryCounts {
+                frames: 0,
+                malformed: 0,
+                lost: 0,
+            },
+        }
+    }
+
+    /// Reads every byte waiting on `port` (never blocks) at board time `now_ms`; a port
+    /// error drops the frame in progress (its bytes are counted as malformed when the
+    /// delimiter comes).
+    pub fn poll<S: Read + ReadReady>(&mut self, port: &mut S, now_ms: u64) {
+        let mut byte = [0u8; 1];
+        while matches!(port.read_ready(), Ok(true)) {
+            match port.read(&mut byte) {
+                Ok(1) => self.push(byte[0], now_ms),
+                _ => break,
+            }
+        }
+    }
+
+    /// Feeds one byte received at `now_ms`.
+    pub fn push(&mut self, byte: u8, now_ms: u64) {
+        match self.assembler.push(byte) {
+            Assembled::Pending => {}
+            Assembled::Overlong => self.counts.malformed += 1,
+            Assembled::Frame(bytes) => match OdometryFrame::decode(bytes) {
+                Ok(f) if f.is_finite() => {
+                    if let Some((prev, _)) = self.latest {
+                        let gap = f.sequence.wrapping_sub(prev.sequence).wrapping_sub(1);
+                        // A restart of the sender (sequence going back) is no loss.
+                        if gap < u32::MAX / 2 {
+                            self.counts.lost = self.counts.lost.saturating_add(gap);
+                        }
+                    }
+                    self.counts.frames += 1;
+                    self.latest = Some((f, now_ms));
+                }
+                _ => self.counts.malformed += 1,
+            },
+        }
+    }
+
+    /// The motion since the previous scan (vehicle frame at the previous scan) when fresh
+    /// odometry is at hand at `now_ms` and was at the previous scan; remembers the frame
+    /// for the next scan either way.
+    pub fn increment_for_scan(&mut self, now_ms: u64) -> Option<OdometryIncrement> {
+        let fresh = self
+            .latest
+            .filter(|(_, at)| now_ms.saturating_sub(*at) <= ODOMETRY_STALE_MS)
+            .map(|(f, _)| f);
+        let previous = core::mem::replace(&mut self.at_last_scan, fresh);
+        Some(OdometryIncrement::between(
+            &pose(&previous?),
+            &pose(&fresh?),
+        ))
+    }
+
+    /// What arrived so far.
+    pub fn counts(&self) -> OdometryCounts {
+        self.counts
+    }
+}
