@@ -406,6 +406,41 @@ mod tests {
         p
     }
 
+    /// With a scan match locked 0.3 m wrong the Huber kernel is active on it: apex-solver
+    /// and the own solver, which share the exact SE(2) logarithm, still agree to the
+    /// micrometre, and factrs (whose logarithm differs for negative angles) to the
+    /// millimetre.
+    #[test]
+    fn the_back_ends_agree_with_an_outlier_under_the_huber_kernel() {
+        let mut p = random_problem(0x0dd_ba11_5eed_0002);
+        // steps[7] is keyframe 3 → 7 (baseline 4); the outlier says the same 0.3 m across.
+        let (from, to) = (p.steps[7].from, p.steps[7].to);
+        assert_eq!((from, to), (3, 7));
+        let z = p.steps[7].z.compose(SimPose::new(0.0, 0.3, 0.0));
+        p.steps.push(Relative {
+            from,
+            to,
+            z,
+            covariance: diag(2e-4, 0.01, 2e-3),
+        });
+        let [factrs, apex, own] = Solver::ALL.map(|s| solve(&p, s, 50).unwrap());
+        let pairs = apex.keyframes.iter().zip(&own.keyframes);
+        for (a, b) in pairs.chain(apex.landmarks.iter().zip(&own.landmarks)) {
+            let d = a.between(*b);
+            assert!(d.x_m.hypot(d.y_m) < 1e-6, "own against apex: {d:?}");
+        }
+        for (a, b) in apex.keyframes.iter().zip(&factrs.keyframes) {
+            let d = a.between(*b);
+            assert!(d.x_m.hypot(d.y_m) < 1e-3, "factrs against apex: {d:?}");
+        }
+        assert!((apex.error_after - own.error_after).abs() < 1e-6 * own.error_after);
+        // The outlier is held off: 3 → 7 stays where the other steps put it.
+        let d = p.steps[7]
+            .z
+            .between(own.keyframes[3].between(own.keyframes[7]));
+        assert!(d.y_m.abs() < 0.01, "{d:?}");
+    }
+
     #[test]
     fn the_three_back_ends_agree_on_a_small_random_problem() {
         let p = random_problem(0x5eed_1234_abcd_0001);

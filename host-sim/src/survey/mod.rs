@@ -239,6 +239,9 @@ pub struct SolveStats {
     pub error_before: f64,
     /// The same at the solution.
     pub error_after: f64,
+    /// Wall time of the solve and the marginals alone (part of the stage's `solve_s`, which
+    /// also matches the scans), seconds.
+    pub seconds: f64,
 }
 
 /// The survey's result.
@@ -530,8 +533,10 @@ pub fn survey(
             });
         }
     }
+    let solve_start = Instant::now();
     let solution = graph::solve(&problem, options.solver, options.max_iterations)
         .map_err(SurveyError::Graph)?;
+    let solve_seconds = solve_start.elapsed().as_secs_f64();
     let solve = SolveStats {
         solver: options.solver,
         iterations: solution.iterations,
@@ -542,6 +547,7 @@ pub fn survey(
             + problem.priors.len(),
         error_before: solution.error_before,
         error_after: solution.error_after,
+        seconds: solve_seconds,
     };
     // Steps the solution contradicts (a scan match that locked wrong, odometry that
     // slipped): the Huber kernel kept them from bending the map, the report names them.

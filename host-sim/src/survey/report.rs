@@ -285,8 +285,8 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
     let v = &s.solve;
     let _ = writeln!(
         o,
-        "joint solve: {}, {} keyframes and landmarks, {} factors, {} iterations, cost {:.6e} → {:.6e}",
-        v.solver, v.variables, v.factors, v.iterations, v.error_before, v.error_after
+        "joint solve: {}, {} keyframes and landmarks, {} factors, {} iterations, cost {:.6e} → {:.6e}, {:.2} s with the marginals",
+        v.solver, v.variables, v.factors, v.iterations, v.error_before, v.error_after, v.seconds
     );
     o
 }
