@@ -210,6 +210,45 @@ else
   fail "build of the emulator or the controller"
 fi
 
+echo "--> watchdog: a stall after 10 scans is reset by the CMSDK watchdog and the controller resumes"
+# Built to hang once after 10 scans (FW_STALL_AFTER_SCANS) and to stop after 30 scans of the
+# run after the reset. The emulator keeps streaming through the stall, as a scanner on a
+# serial line would.
+if FW_CONTROLLER_SCANS=30 FW_STALL_AFTER_SCANS=10 cargo build --release --quiet --bin controller; then
+  "$host_target/release/lms5xx-emulator" --recording "$out_dir/scans_colab.bin" --port 0 \
+    --duration-s "$QEMU_TIMEOUT_S" >"$work/emulator-wd.log" 2>&1 &
+  emulator_pid=$!
+  port=""
+  for _ in $(seq 50); do
+    port=$(sed -nE 's/.*listening on 127\.0\.0\.1:([0-9]+).*/\1/p' "$work/emulator-wd.log" | head -1)
+    [ -n "$port" ] && break
+    sleep 0.2
+  done
+  timeout 120 qemu-system-arm -machine mps2-an386 -nographic \
+    -semihosting-config enable=on,target=native \
+    -serial "tcp:127.0.0.1:${port:-1}" "${flash_map[@]}" \
+    -kernel "$elf_dir/controller" >"$work/raw-wd.defmt"
+  status=$?
+  kill "$emulator_pid" 2>/dev/null
+  wait "$emulator_pid" 2>/dev/null
+  defmt-print -e "$elf_dir/controller" <"$work/raw-wd.defmt" >"$work/watchdog.log"
+  grep -vE 'skipped unrelated|^INFO  scan [0-9]+:' "$work/watchdog.log"
+  after=$(sed -n '/restarted after a reset/,$p' "$work/watchdog.log")
+  flagged=$(grep -c 'after reset true' <<<"$after")
+  if [ "$status" -eq 0 ] && grep -q 'stalling after 10 scans' "$work/watchdog.log" \
+    && grep -q 'restarted after a reset while running (reset 1)' <<<"$after" \
+    && grep -q 'subscribed: scans follow' <<<"$after" && [ "$flagged" -ge 1 ] \
+    && grep -q 'the pose is stale' "$work/watchdog.log"; then
+    pass "stall caught by the watchdog: reset, scanner session re-initialised, 30 scans localised after it ($flagged marked after_reset), stale pose reported while no scan came"
+  else
+    fail "watchdog (QEMU status $status; $flagged poses marked after_reset)"
+  fi
+else
+  fail "build of the stalling controller"
+fi
+# The plain controller again, for anything run after this script.
+FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller
+
 echo "--> controller without a map (erased map flash region): reports it and waits"
 timeout 8 qemu-system-arm -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \

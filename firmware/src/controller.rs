@@ -200,6 +200,8 @@ impl<'m> Controller<'m> {
             covariance_upper: [c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]],
             status: pose_status(&status),
             motion: self.motion_source,
+            // The run loop marks poses after a reset.
+            after_reset: false,
         }
     }
 
@@ -271,13 +273,89 @@ pub fn wait_without_map<B: Board>(board: &mut B, error: &MapError) -> ! {
     }
 }
 
-/// Runs the controller on `board` for ever, or until `scan_limit` scans were localised
-/// (test runs), then exits with success. `session_buf` is the LMS session's receive buffer.
+/// [`quiet_scanner`] drains the line until it has been silent this long, ms.
+pub const QUIET_SILENCE_MS: u64 = 100;
+/// ... or for this long at most, ms.
+pub const QUIET_MAX_MS: u64 = 3000;
+
+/// After a reset while running, the scanner on a serial line is still streaming the scans of
+/// the previous run's subscription, and a backlog of them queues ahead of any answer to the
+/// new session's first requests. Asks it to stop (`sEN LMDscandata 0`, in CoLa-B and CoLa-A:
+/// the dialect of the previous run is unknown) and drains the line until it is silent for
+/// [`QUIET_SILENCE_MS`] (at most [`QUIET_MAX_MS`]), so the new session starts on a quiet line.
+pub fn quiet_scanner<B: Board>(board: &mut B) {
+    use embedded_io::{Read, ReadReady, Write};
+    use lidar_driver::request::{names, Request};
+    let stop = Request::Subscribe {
+        event: names::SCAN_DATA,
+        enable: false,
+    };
+    let mut buf = [0u8; 64];
+    for dialect in [lidar_driver::Dialect::ColaB, lidar_driver::Dialect::ColaA] {
+        if let Ok(n) = stop.emit(dialect, &mut buf) {
+            let _ = board.serial().write_all(buf.get(..n).unwrap_or(&[]));
+        }
+    }
+    let _ = board.serial().flush();
+    let start = board.now_ms();
+    let mut last_byte_ms = start;
+    let mut drained = 0usize;
+    loop {
+        let now = board.now_ms();
+        if now - last_byte_ms >= QUIET_SILENCE_MS || now - start >= QUIET_MAX_MS {
+            break;
+        }
+        let serial = board.serial();
+        if matches!(serial.read_ready(), Ok(true)) {
+            if let Ok(n) = serial.read(&mut buf) {
+                drained += n;
+                last_byte_ms = now;
+            }
+        }
+    }
+    defmt::info!(
+        "scanner asked to stop streaming; {=usize} bytes drained from the line in {=u64} ms",
+        drained,
+        board.now_ms() - start
+    );
+}
+
+/// How [`run`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunOptions {
+    /// Stop with success after this many scans (test runs); `None`: run for ever.
+    pub scan_limit: Option<u32>,
+    /// Resets while running before this start (`retained::boot`): poses are marked
+    /// `after_reset` until the controller tracks again.
+    pub resets: u32,
+    /// No scan for this long makes the controller send [`PoseStatus::Stale`] frames (the
+    /// last pose), one per this period, milliseconds.
+    pub stale_after_ms: u64,
+    /// The hardware watchdog's time-out, milliseconds: a loop that stalls this long resets
+    /// the controller.
+    pub watchdog_ms: u32,
+    /// Test runs only: stop feeding the watchdog (hang) after this many scans, on a run that
+    /// was not itself started by a reset.
+    pub stall_after_scans: Option<u32>,
+}
+
+/// Defaults: run for ever, stale after 500 ms without a scan (12 scans at 25 Hz), a 1 s
+/// watchdog.
+pub const DEFAULT_RUN: RunOptions = RunOptions {
+    scan_limit: None,
+    resets: 0,
+    stale_after_ms: 500,
+    watchdog_ms: 1000,
+    stall_after_scans: None,
+};
+
+/// Runs the controller on `board` for ever (or as `options` say for test runs).
+/// `session_buf` is the LMS session's receive buffer.
 pub fn run<B: Board>(
     board: &mut B,
     controller: &mut Controller<'_>,
     session_buf: &mut [u8],
-    scan_limit: Option<u32>,
+    options: &RunOptions,
 ) -> ! {
     let mut session = Session::new(session_buf, SessionConfig::default());
     let mut odometry = OdometryInput::new();
@@ -285,53 +363,19 @@ pub fn run<B: Board>(
     // Whether the previous scan had odometry (`None` before the first scan): each change is
     // logged once.
     let mut had_odometry: Option<bool> = None;
+    let mut after_reset = options.resets > 0;
+    let mut last_scan_ms = board.now_ms();
+    let mut next_stale_ms = last_scan_ms + options.stale_after_ms;
+    let mut last_frame: Option<PoseFrame> = None;
+    board.start_watchdog(options.watchdog_ms);
     loop {
+        board.feed_watchdog();
         // The session reads the clock a few times per poll; one reading per poll suffices.
         let now_ms = board.now_ms();
         let clock = move || now_ms;
         odometry.poll(board.odometry_serial(), now_ms);
-        let frame = match session.poll(&mut FixedLink(board.serial()), &clock) {
-            Event::Scan(telegram) => {
-                let increment = odometry.increment_for_scan(now_ms);
-                if had_odometry != Some(increment.is_some()) {
-                    had_odometry = Some(increment.is_some());
-                    if increment.is_some() {
-                        defmt::info!("odometry: predicting with the vehicle's odometry");
-                    } else {
-                        defmt::warn!(
-                            "odometry: none within {=u64} ms: predicting with constant velocity ({})",
-                            ODOMETRY_STALE_MS,
-                            odometry.counts()
-                        );
-                    }
-                }
-                let t0 = board.counter_now();
-                let result = controller.on_scan(&telegram, increment.as_ref());
-                let cost = board.counter_now() - t0;
-                match result {
-                    Ok(frame) => {
-                        defmt::info!(
-                            "scan {=u32}: ({=f32}, {=f32}, {=f32}) {} in {=u64} {}, motion {}",
-                            frame.sequence,
-                            frame.x_m,
-                            frame.y_m,
-                            frame.theta_rad,
-                            frame.status,
-                            cost,
-                            B::COUNTER_UNIT,
-                            frame.motion
-                        );
-                        if frame.status == PoseStatus::OdometryOnly {
-                            defmt::info!("  scan not used: {}", controller.localizer().status());
-                        }
-                        Some(frame)
-                    }
-                    Err(e) => {
-                        defmt::warn!("scan telegram not used: {}", e);
-                        None
-                    }
-                }
-            }
+        let telegram = match session.poll(&mut FixedLink(board.serial()), &clock) {
+            Event::Scan(telegram) => Some(telegram),
             Event::Failed(e) => {
                 defmt::warn!("LMS session failed: {}", e);
                 None
@@ -342,22 +386,106 @@ pub fn run<B: Board>(
                 None
             }
         };
-        if let Some(frame) = frame {
-            send(board, &frame);
-            scans += 1;
-            if scan_limit.is_some_and(|limit| scans >= limit) {
-                let ram = crate::ram::usage();
-                defmt::println!("controller: odometry {}", odometry.counts());
-                defmt::println!(
-                    "controller: {=u32} scans localised, stopping (test run); ram: static {=u32} bytes + stack high-water mark {=u32} bytes = {=u32} bytes (headroom left: {=bool})",
-                    scans,
-                    ram.static_bytes,
-                    ram.stack_high_water_bytes,
-                    ram.total_bytes(),
-                    ram.headroom_left
-                );
-                B::exit(ExitStatus::Success);
+        let Some(telegram) = telegram else {
+            if now_ms >= next_stale_ms {
+                next_stale_ms = now_ms + options.stale_after_ms;
+                send_stale(board, &mut last_frame, now_ms - last_scan_ms);
+            }
+            continue;
+        };
+        let increment = odometry.increment_for_scan(now_ms);
+        if had_odometry != Some(increment.is_some()) {
+            had_odometry = Some(increment.is_some());
+            log_odometry_change(increment.is_some(), &odometry);
+        }
+        let t0 = board.counter_now();
+        let result = controller.on_scan(&telegram, increment.as_ref());
+        let cost = board.counter_now() - t0;
+        let mut frame = match result {
+            Ok(frame) => frame,
+            Err(e) => {
+                defmt::warn!("scan telegram not used: {}", e);
+                continue;
+            }
+        };
+        last_scan_ms = now_ms;
+        next_stale_ms = now_ms + options.stale_after_ms;
+        frame.after_reset = after_reset;
+        after_reset &= frame.status != PoseStatus::Tracking;
+        defmt::info!(
+            "scan {=u32}: ({=f32}, {=f32}, {=f32}) {} in {=u64} {}, motion {}, after reset {=bool}",
+            frame.sequence,
+            frame.x_m,
+            frame.y_m,
+            frame.theta_rad,
+            frame.status,
+            cost,
+            B::COUNTER_UNIT,
+            frame.motion,
+            frame.after_reset
+        );
+        if frame.status == PoseStatus::OdometryOnly {
+            defmt::info!("  scan not used: {}", controller.localizer().status());
+        }
+        if let Some(pose) = controller.localizer().pose() {
+            crate::retained::store_pose(options.resets, &pose);
+        }
+        send(board, &frame);
+        last_frame = Some(frame);
+        scans += 1;
+        if options.resets == 0 && options.stall_after_scans == Some(scans) {
+            defmt::warn!(
+                "test run: stalling after {=u32} scans (the watchdog must reset)",
+                scans
+            );
+            loop {
+                cortex_m::asm::nop();
             }
         }
+        if options.scan_limit.is_some_and(|limit| scans >= limit) {
+            finish_test_run::<B>(scans, &odometry);
+        }
     }
+}
+
+/// Sends the last pose as [`PoseStatus::Stale`] (`silent_ms` without a scan); logs the
+/// first of a run of them.
+fn send_stale<B: Board>(board: &mut B, last: &mut Option<PoseFrame>, silent_ms: u64) {
+    let mut frame = last.unwrap_or(PoseFrame::no_map(0));
+    if frame.status != PoseStatus::Stale {
+        defmt::warn!(
+            "no scan for {=u64} ms: the pose is stale (check the scanner and its link)",
+            silent_ms
+        );
+    }
+    frame.status = PoseStatus::Stale;
+    send(board, &frame);
+    *last = Some(frame);
+}
+
+fn log_odometry_change(has_odometry: bool, odometry: &OdometryInput) {
+    if has_odometry {
+        defmt::info!("odometry: predicting with the vehicle's odometry");
+    } else {
+        defmt::warn!(
+            "odometry: none within {=u64} ms: predicting with constant velocity ({})",
+            ODOMETRY_STALE_MS,
+            odometry.counts()
+        );
+    }
+}
+
+/// The end of a test run: what it used, then success.
+fn finish_test_run<B: Board>(scans: u32, odometry: &OdometryInput) -> ! {
+    let ram = crate::ram::usage();
+    defmt::println!("controller: odometry {}", odometry.counts());
+    defmt::println!(
+        "controller: {=u32} scans localised, stopping (test run); ram: static {=u32} bytes + stack high-water mark {=u32} bytes = {=u32} bytes (headroom left: {=bool})",
+        scans,
+        ram.static_bytes,
+        ram.stack_high_water_bytes,
+        ram.total_bytes(),
+        ram.headroom_left
+    );
+    B::exit(ExitStatus::Success)
 }

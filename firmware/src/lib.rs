@@ -12,7 +12,8 @@
 //! - the vehicle interface's frames (pose out, odometry in) are the `controller-wire` crate
 //!   beside this one, shared with the host tools;
 //! - [`fault`]: panic and HardFault handlers;
-//! - [`ram`]: static RAM and the stack's high-water mark (painted stack).
+//! - [`ram`]: static RAM and the stack's high-water mark (painted stack);
+//! - [`retained`]: what survives a reset (that the controller was running, its last pose).
 //!
 //! The benchmark, the on-target self-tests and the recorded fixtures they replay are the
 //! `firmware-testbench` crate beside this one; nothing here reaches them.
@@ -25,5 +26,6 @@ pub mod fault;
 pub mod flash_map;
 pub mod odometry;
 pub mod ram;
+pub mod retained;
 
 pub use board::{Board, ExitStatus, SelectedBoard};

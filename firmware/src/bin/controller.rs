@@ -1,17 +1,22 @@
 //! The localisation controller: LMS511 on the board's serial port, a pose frame (postcard +
 //! COBS) out after every scan. See `firmware::controller`.
 //!
-//! Build with `FW_CONTROLLER_SCANS=N` in the environment to stop after N scans (test runs
-//! under QEMU against the LMS5xx emulator).
+//! Test builds (QEMU against the LMS5xx emulator), by environment variables at build time:
+//! `FW_CONTROLLER_SCANS=N` stops after N scans; `FW_STALL_AFTER_SCANS=N` hangs after N scans
+//! of the first run (the watchdog must reset the controller, which then resumes).
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
-use firmware::controller::{self, Controller, SESSION_BUFFER_BYTES};
+use firmware::controller::{self, Controller, RunOptions, DEFAULT_RUN, SESSION_BUFFER_BYTES};
+use loc_core::geometry::Pose2;
+use loc_core::localizer::StartPose;
 
 /// Scans after which a test build stops (`FW_CONTROLLER_SCANS` at build time).
 const SCAN_LIMIT: Option<u32> = parse_limit(option_env!("FW_CONTROLLER_SCANS"));
+/// Scans after which a test build hangs, once (`FW_STALL_AFTER_SCANS` at build time).
+const STALL_AFTER_SCANS: Option<u32> = parse_limit(option_env!("FW_STALL_AFTER_SCANS"));
 
 const fn parse_limit(text: Option<&str>) -> Option<u32> {
     let Some(text) = text else { return None };
@@ -37,6 +42,7 @@ const fn parse_limit(text: Option<&str>) -> Option<u32> {
 fn main() -> ! {
     // For the RAM report of test runs (`firmware::ram`): the free stack, painted.
     firmware::ram::paint_stack();
+    let boot = firmware::retained::boot();
     let Some(mut board) = SelectedBoard::take() else {
         SelectedBoard::exit(ExitStatus::Failure)
     };
@@ -51,10 +57,26 @@ fn main() -> ! {
         Ok(map) => map,
         Err(e) => controller::wait_without_map(&mut board, &e),
     };
-    let (source, start, record_error) = match controller::start_pose(region, map) {
+    let (source, mut start, record_error) = match controller::start_pose(region, map) {
         Ok(s) => s,
         Err(e) => controller::wait_without_map(&mut board, &e),
     };
+    if boot.resets > 0 {
+        defmt::warn!(
+            "restarted after a reset while running (reset {=u32}): re-initialising the scanner session; poses marked after_reset until tracking",
+            boot.resets
+        );
+        // Where the vehicle last was beats the start-pose record: it has not gone far.
+        if let Some((x, y, theta)) = boot.last_pose {
+            start = StartPose {
+                pose: Pose2::new(x, y, theta),
+                sigma_xy_m: controller::DEFAULT_START_SIGMA[0],
+                sigma_theta_rad: controller::DEFAULT_START_SIGMA[1],
+            };
+            defmt::warn!("  starting from the last pose before the reset");
+        }
+        controller::quiet_scanner(&mut board);
+    }
     if let Some(e) = record_error {
         defmt::warn!(
             "start pose record unusable ({}): starting at the tunnel entrance",
@@ -75,5 +97,11 @@ fn main() -> ! {
         defmt::error!("start pose rejected by the filter: {}", e);
         SelectedBoard::exit(ExitStatus::Failure)
     }
-    controller::run(&mut board, controller, session_buf, SCAN_LIMIT)
+    let options = RunOptions {
+        scan_limit: SCAN_LIMIT,
+        resets: boot.resets,
+        stall_after_scans: STALL_AFTER_SCANS,
+        ..DEFAULT_RUN
+    };
+    controller::run(&mut board, controller, session_buf, &options)
 }

@@ -72,6 +72,13 @@ pub trait Board {
     /// The odometry port.
     fn odometry_serial(&mut self) -> &mut Self::OdometrySerial;
 
+    /// Starts the hardware watchdog: the board resets unless [`Board::feed_watchdog`] is
+    /// called within `timeout_ms` (QEMU: the CMSDK watchdog; STM32: the IWDG).
+    fn start_watchdog(&mut self, timeout_ms: u32);
+
+    /// Feeds the watchdog.
+    fn feed_watchdog(&mut self);
+
     /// A monotonic 64-bit count of [`Board::COUNTER_UNIT`] since start-up. The resolution is
     /// board-specific ([`Board::COUNTER_RESOLUTION`]); differences of two reads measure the
     /// code between them.

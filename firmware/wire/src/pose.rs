@@ -26,6 +26,9 @@ pub enum PoseStatus {
     /// The controller has no usable map and does not localise: flash a map and reset. The
     /// pose fields are zero.
     NoMap,
+    /// No scan arrived for longer than the controller's stale time: the pose is the last
+    /// estimate, not where the vehicle is now. Check the scanner and its link.
+    Stale,
     /// The last scan updated the estimate, but the map is not confirmed: the landmarks in
     /// view have not fitted it lately (another tunnel's map, landmarks moved or damaged). The
     /// pose may be confidently wrong: do not steer by it.
@@ -64,6 +67,9 @@ pub struct PoseFrame {
     pub status: PoseStatus,
     /// What the motion prediction before this scan rested on.
     pub motion: MotionSource,
+    /// The controller restarted after a reset (watchdog, fault) and has not tracked since:
+    /// the pose started from the last one stored before the reset, with a wide uncertainty.
+    pub after_reset: bool,
 }
 
 /// Why a frame could not be encoded or decoded.
@@ -105,6 +111,7 @@ impl PoseFrame {
             covariance_upper: [0.0; 6],
             status: PoseStatus::NoMap,
             motion: MotionSource::None,
+            after_reset: false,
         }
     }
 

@@ -6,10 +6,12 @@
 //! `qemu-system-arm -machine mps2-an386 -nographic -semihosting-config enable=on,target=native -icount shift=0 -kernel ELF`.
 
 mod cmsdk_uart;
+mod cmsdk_watchdog;
 mod semihosting_exit;
 mod systick_counter;
 
 pub use cmsdk_uart::{CmsdkUart, UartError};
+pub use cmsdk_watchdog::CmsdkWatchdog;
 pub use systick_counter::{SysTickCounter, INSTRUCTIONS_PER_TICK};
 
 use super::{Board, CounterUnit, ExitStatus};
@@ -26,6 +28,8 @@ pub const PCLK_HZ: u32 = 25_000_000;
 pub const UART0_BAUD: u32 = 115_200;
 /// Base address of UART1 (CMSDK APB UART), the odometry port: QEMU's second `-serial`.
 pub const UART1_BASE: usize = 0x4000_5000;
+/// Base address of the CMSDK APB watchdog (clocked at [`PCLK_HZ`]).
+pub const WATCHDOG_BASE: usize = 0x4000_8000;
 
 /// Start of the stored-map flash region: the last MiB of the 4 MiB code memory
 /// (`memory/mps2-an386.x` gives the program the first 3 MiB). Load a map file there with
@@ -39,6 +43,7 @@ pub const MAP_REGION_LEN: usize = 0x0010_0000;
 pub struct Mps2An386 {
     uart0: CmsdkUart,
     uart1: CmsdkUart,
+    watchdog: CmsdkWatchdog,
     counter: SysTickCounter,
 }
 
@@ -57,10 +62,13 @@ impl Board for Mps2An386 {
         let uart0 = unsafe { CmsdkUart::new(UART0_BASE, PCLK_HZ, UART0_BAUD) };
         // SAFETY: as above, for UART1.
         let uart1 = unsafe { CmsdkUart::new(UART1_BASE, PCLK_HZ, UART0_BAUD) };
+        // SAFETY: WATCHDOG_BASE is the board's CMSDK watchdog, constructed once here.
+        let watchdog = unsafe { CmsdkWatchdog::new(WATCHDOG_BASE, PCLK_HZ) };
         let counter = SysTickCounter::start(cp.SYST);
         Some(Self {
             uart0,
             uart1,
+            watchdog,
             counter,
         })
     }
@@ -83,6 +91,14 @@ impl Board for Mps2An386 {
 
     fn odometry_serial(&mut self) -> &mut CmsdkUart {
         &mut self.uart1
+    }
+
+    fn start_watchdog(&mut self, timeout_ms: u32) {
+        self.watchdog.start(timeout_ms);
+    }
+
+    fn feed_watchdog(&mut self) {
+        self.watchdog.feed();
     }
 
     fn counter_now(&self) -> u64 {

@@ -28,6 +28,7 @@ pub type Usart3 = Usart<pac::USART3>;
 /// USART2: the vehicle's odometry frames.
 pub type Usart2 = Usart<pac::USART2>;
 
+use stm32h7xx_hal::independent_watchdog::IndependentWatchdog;
 use stm32h7xx_hal::{pac, prelude::*};
 
 use super::{Board, CounterUnit, ExitStatus};
@@ -55,6 +56,7 @@ pub const MAP_REGION_LEN: usize = 0x0004_0000;
 pub struct NucleoH743zi {
     usart3: Usart3,
     usart2: Usart2,
+    watchdog: IndependentWatchdog,
     counter: CycleCounter,
 }
 
@@ -101,6 +103,7 @@ impl Board for NucleoH743zi {
         Some(Self {
             usart3: Usart3::new(serial),
             usart2: Usart2::new(odometry),
+            watchdog: IndependentWatchdog::new(dp.IWDG),
             counter,
         })
     }
@@ -121,6 +124,14 @@ impl Board for NucleoH743zi {
 
     fn odometry_serial(&mut self) -> &mut Usart2 {
         &mut self.usart2
+    }
+
+    fn start_watchdog(&mut self, timeout_ms: u32) {
+        self.watchdog.start(timeout_ms.millis());
+    }
+
+    fn feed_watchdog(&mut self) {
+        self.watchdog.feed();
     }
 
     fn counter_now(&self) -> u64 {

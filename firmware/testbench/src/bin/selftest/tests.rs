@@ -126,6 +126,7 @@ fn sample_frame() -> PoseFrame {
         covariance_upper: [1e-3, 0.0, 0.0, 2e-3, 0.0, 1e-4],
         status: PoseStatus::Tracking,
         motion: MotionSource::Odometry,
+        after_reset: false,
     }
 }
 
