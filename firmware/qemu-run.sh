@@ -15,7 +15,8 @@
 set -uo pipefail
 elf=$1
 shift
-out_dir=$(ls -td "$(dirname "$elf")"/build/firmware-testbench-*/out 2>/dev/null | head -1)
+out_dir=$(dirname "$(ls -t "$(dirname "$elf")"/build/firmware-testbench-*/out/recording.rs 2>/dev/null | head -1)" 2>/dev/null)
+[ "$out_dir" = "." ] && out_dir=""
 loader=()
 [ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/${QEMU_MAP:-map.bin},addr=0x00300000"
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")

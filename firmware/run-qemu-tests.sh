@@ -72,7 +72,7 @@ fi
 # The testbench's recording: the map file and the start-pose record go into the board's map
 # flash region (the map from its first byte, the start pose in its last 4 KiB), as a flasher
 # would put them.
-out_dir=$(ls -td "$elf_dir"/build/firmware-testbench-*/out 2>/dev/null | head -1)
+out_dir=$(dirname "$(ls -t "$elf_dir"/build/firmware-testbench-*/out/recording.rs 2>/dev/null | head -1)")
 flash_map=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 

@@ -30,9 +30,13 @@
 //! | 64 | `n × 20` | segments, `n = nl + nr + nk` (left wall, right wall, landmarks): `ax, ay, bx, by: f32` (world frame, metres), `kind: u16` (0 left wall, 1 right wall, `2 + id` landmark `id`), `u16` 0 |
 //! | | `nc × 4` | cell keys, `u32`, strictly increasing (packed i16 cell coordinates `ix << 16 \| iy`) |
 //! | | `nc × 4` | cell ends, `u32`: one past the cell's last reference (the cell's first is the previous cell's end, or 0) |
+//! | | `nh × 4` | cell hash table, `u32`: cell index + 1, 0 empty; `nh` the power of two ≥ 1.5 `nc` + 1 (0 without cells); a key's home slot is `(key · 0x9E3779B1 mod 2³²) · nh / 2³²`, collisions go to the next slot (linear probing) |
 //! | | `nf × 2` | references, `u16` segment indices grouped by cell, padded to 4 bytes with 0 |
 //! | | `nm × 52` | landmarks: `wall: u8` (0 left, 1 right), `model: u8` (tag), `segments: u8`, `u8` 0, `first_segment: u16`, `u16` 0, `s_m, offset_m, W, H, D: f32`, `h1…h6: [f32; 6]` |
 //! | | u32 | CRC-32 (IEEE) of every byte before it |
+//!
+//! A query finds a cell's segments through the hash table (about 1.3 probes), not by a
+//! binary search of the keys: the lookup costs the same on a 10 km map as on a 100 m one.
 //!
 //! Everything is checked once when the image is opened ([`MapImage::from_bytes`],
 //! [`MapImage::from_region`]): the CRC, then every count, segment, key, reference and
@@ -68,6 +72,26 @@ const SEGMENT_BYTES: usize = 20;
 const LANDMARK_BYTES: usize = 52;
 /// Kind code of the first landmark (landmark `id` is `LANDMARK_KIND + id`).
 const LANDMARK_KIND: u16 = 2;
+/// Multiplier of the cell hash (Fibonacci hashing: 2³² / φ).
+const HASH_MULTIPLIER: u32 = 0x9E37_79B1;
+
+/// Slots of the hash table for `cells` cells: the power of two at or above 1.5 × cells + 1
+/// (load ≤ 2/3, so a probe sequence always ends at an empty slot).
+fn hash_slots(cells: usize) -> Option<usize> {
+    if cells == 0 {
+        return Some(0);
+    }
+    cells
+        .checked_add(cells / 2)?
+        .checked_add(1)?
+        .checked_next_power_of_two()
+}
+
+/// The home slot of `key` in a table of `slots` slots.
+#[inline]
+fn home_slot(key: u32, slots: usize) -> usize {
+    ((u64::from(key.wrapping_mul(HASH_MULTIPLIER)) * slots as u64) >> 32) as usize
+}
 
 /// Where each section of an image starts, from its counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,6 +104,8 @@ struct Layout {
     refs: usize,
     keys_at: usize,
     ends_at: usize,
+    hash_at: usize,
+    hash_slots: usize,
     refs_at: usize,
     landmarks_at: usize,
     crc_at: usize,
@@ -98,7 +124,9 @@ impl Layout {
         let segments = left.checked_add(right)?.checked_add(landmark_segments)?;
         let keys_at = IMAGE_HEADER_LEN.checked_add(segments.checked_mul(SEGMENT_BYTES)?)?;
         let ends_at = keys_at.checked_add(cells.checked_mul(4)?)?;
-        let refs_at = ends_at.checked_add(cells.checked_mul(4)?)?;
+        let hash_at = ends_at.checked_add(cells.checked_mul(4)?)?;
+        let hash_slots = hash_slots(cells)?;
+        let refs_at = hash_at.checked_add(hash_slots.checked_mul(4)?)?;
         let refs_bytes = refs.checked_mul(2)?.checked_add(3)? & !3;
         let landmarks_at = refs_at.checked_add(refs_bytes)?;
         let crc_at = landmarks_at.checked_add(landmarks.checked_mul(LANDMARK_BYTES)?)?;
@@ -112,6 +140,8 @@ impl Layout {
             refs,
             keys_at,
             ends_at,
+            hash_at,
+            hash_slots,
             refs_at,
             landmarks_at,
             crc_at,
@@ -327,6 +357,24 @@ impl<'a> MapImage<'a> {
                 });
             }
         }
+        // Every slot empty or a cell, and every cell found where the lookup looks.
+        for s in 0..l.hash_slots {
+            if u32_at(self.bytes, l.hash_at + 4 * s).is_none_or(|e| e as usize > l.cells) {
+                return Err(MapError::Corrupt {
+                    part: "index hash slot",
+                    index: u32::try_from(s).unwrap_or(u32::MAX),
+                });
+            }
+        }
+        for i in 0..l.cells {
+            let key = u32_at(self.bytes, l.keys_at + 4 * i);
+            if key.and_then(|k| self.find_cell(k)) != Some(i) {
+                return Err(MapError::Corrupt {
+                    part: "index hash",
+                    index: u32::try_from(i).unwrap_or(u32::MAX),
+                });
+            }
+        }
         Ok(bounds)
     }
 
@@ -372,6 +420,26 @@ impl<'a> MapImage<'a> {
             });
         }
         Ok(())
+    }
+
+    /// The index of the cell with `key`, through the hash table (at most one pass over it).
+    #[inline]
+    fn find_cell(&self, key: u32) -> Option<usize> {
+        let l = &self.layout;
+        if l.hash_slots == 0 {
+            return None;
+        }
+        let mask = l.hash_slots - 1;
+        let mut slot = home_slot(key, l.hash_slots);
+        for _ in 0..l.hash_slots {
+            let entry = u32_at(self.bytes, l.hash_at + 4 * slot)? as usize;
+            let cell = entry.checked_sub(1)?;
+            if u32_at(self.bytes, l.keys_at + 4 * cell)? == key {
+                return Some(cell);
+            }
+            slot = (slot + 1) & mask;
+        }
+        None
     }
 
     /// Segment `i` as stored (kind decoded); `None` past the end or for a bad kind code.
@@ -500,23 +568,7 @@ impl CellIndex for MapImage<'_> {
 
     fn for_each_ref(&self, c: Cell, f: impl FnMut(u16)) {
         let l = &self.layout;
-        let key = c.key();
-        // Binary search over the sorted keys, read in place.
-        let (mut lo, mut hi) = (0usize, l.cells);
-        let mut found = None;
-        while lo < hi {
-            let mid = lo + (hi - lo) / 2;
-            match u32_at(self.bytes, l.keys_at + 4 * mid) {
-                Some(k) if k < key => lo = mid + 1,
-                Some(k) if k > key => hi = mid,
-                Some(_) => {
-                    found = Some(mid);
-                    break;
-                }
-                None => return,
-            }
-        }
-        let Some(i) = found else {
+        let Some(i) = self.find_cell(c.key()) else {
             return;
         };
         let start = match i.checked_sub(1) {
@@ -642,6 +694,22 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         for k in keys.iter().chain(ends) {
             w.put(&k.to_le_bytes());
         }
+        // The hash table, filled in key order (linear probing); the buffer is zeroed above.
+        let mask = l.hash_slots.wrapping_sub(1);
+        for (i, &key) in keys.iter().enumerate() {
+            let mut slot = home_slot(key, l.hash_slots);
+            while u32_at(w.out, l.hash_at + 4 * slot).is_some_and(|e| e != 0) {
+                slot = (slot + 1) & mask;
+            }
+            let entry = u32::try_from(i + 1).unwrap_or(u32::MAX);
+            if let Some(dst) = w
+                .out
+                .get_mut(l.hash_at + 4 * slot..l.hash_at + 4 * slot + 4)
+            {
+                dst.copy_from_slice(&entry.to_le_bytes());
+            }
+        }
+        w.at = l.refs_at;
         for r in refs {
             w.put(&r.to_le_bytes());
         }
@@ -826,6 +894,29 @@ mod tests {
             Err(MapError::Corrupt {
                 part: "index cell",
                 index: 1
+            })
+        ));
+        // A hash slot naming no cell; a cell's slot emptied (its lookups would miss it).
+        let mut d = bytes;
+        d[l.hash_at..l.hash_at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(matches!(
+            MapImage::from_bytes(&reseal(d)[..n]),
+            Err(MapError::Corrupt {
+                part: "index hash slot",
+                index: 0
+            })
+        ));
+        let mut d = bytes;
+        let home = home_slot(
+            u32::from_le_bytes(d[l.keys_at..l.keys_at + 4].try_into().unwrap()),
+            l.hash_slots,
+        );
+        d[l.hash_at + 4 * home..l.hash_at + 4 * home + 4].fill(0);
+        assert!(matches!(
+            MapImage::from_bytes(&reseal(d)[..n]),
+            Err(MapError::Corrupt {
+                part: "index hash",
+                ..
             })
         ));
         let mut d = bytes;
