@@ -28,6 +28,7 @@ pub mod plot;
 pub mod report;
 pub mod scan_steps;
 pub mod score;
+#[cfg(feature = "solver-apex")]
 pub mod solver_apex;
 pub mod solver_factrs;
 pub mod solver_own;
