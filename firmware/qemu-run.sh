@@ -5,8 +5,9 @@
 # 124 on time-out.
 #   usage: qemu-run.sh ELF [QEMU ARGS...]
 #   env:   QEMU_TIMEOUT_S (default 300), QEMU_SERIAL (UART0, default null),
-#          QEMU_ODOMETRY (the bytes UART1 receives, default the recording's
-#          odometry_frames.bin: one odometry frame per scan),
+#          QEMU_ODOMETRY (the bytes UART1, the vehicle port, receives; default the
+#          recording's odometry_frames.bin: one odometry frame per scan),
+#          QEMU_VEHICLE_OUT (where UART1's output, the pose frames, goes; default discarded),
 #          QEMU_MAP (the map image file flashed, default the recording's map.bin; the
 #          testbench also writes map_1km.bin and map_10km.bin, the same tunnel longer)
 # The testbench's recorded map and start pose go into the map flash region (the map at
@@ -30,7 +31,8 @@ uart1=(-serial null)
 if [ -n "$odometry" ] && [ -f "$odometry" ]; then
   mkfifo "$fifo_dir/odometry.in" "$fifo_dir/odometry.out"
   cat "$odometry" >"$fifo_dir/odometry.in" &
-  cat "$fifo_dir/odometry.out" >/dev/null &
+  cat "$fifo_dir/odometry.out" >"${QEMU_VEHICLE_OUT:-/dev/null}" &
+  vehicle_reader=$!
   uart1=(-chardev "pipe,id=odometry,path=$fifo_dir/odometry" -serial chardev:odometry)
 fi
 timeout "${QEMU_TIMEOUT_S:-300}" qemu-system-arm \
@@ -41,5 +43,7 @@ timeout "${QEMU_TIMEOUT_S:-300}" qemu-system-arm \
   "${loader[@]}" "$@" \
   -kernel "$elf" >"$raw"
 status=$?
+# QEMU has closed the vehicle port: let its reader write the last bytes.
+[ -n "${vehicle_reader:-}" ] && wait "$vehicle_reader"
 defmt-print -e "$elf" <"$raw" || [ "$status" -ne 0 ] || status=1
 exit "$status"

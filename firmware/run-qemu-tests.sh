@@ -44,7 +44,7 @@ fi
 run_qemu() {
   local elf=$1 uart=$2
   shift 2
-  QEMU_SERIAL="file:$uart" ./qemu-run.sh "$elf" "$@"
+  QEMU_SERIAL="file:$uart" QEMU_VEHICLE_OUT="$uart.vehicle" ./qemu-run.sh "$elf" "$@"
 }
 
 echo "--> controller-wire (the vehicle interface frames) on the host"
@@ -91,13 +91,13 @@ if [ -x "$elf_dir/selftest" ]; then
     [ "${st_fail:-0}" -eq 0 ] && failed=$((failed + 1))
     passed=$((passed + ${st_pass:-0}))
   fi
-  # The UART0 bytes the firmware sent must be the frame it logged.
-  logged=$(sed -nE 's/^ *uart0 frame [0-9]+ bytes: \[(.*)\]$/\1/p' "$work/selftest.log" | tr -d ', ')
-  received=$(od -An -v -tx1 "$work/uart0.bin" 2>/dev/null | tr -d ' \n')
+  # The vehicle port's (UART1) bytes the firmware sent must be the frame it logged.
+  logged=$(sed -nE 's/^ *vehicle port frame [0-9]+ bytes: \[(.*)\]$/\1/p' "$work/selftest.log" | tr -d ', ')
+  received=$(od -An -v -tx1 "$work/uart0.bin.vehicle" 2>/dev/null | tr -d ' \n')
   if [ -n "$logged" ] && [ "$logged" = "$received" ]; then
-    pass "uart0 bytes on the host match the frame the firmware sent"
+    pass "vehicle port (UART1) bytes on the host match the pose frame the firmware sent"
   else
-    fail "uart0 capture '$received' differs from the logged frame '$logged'"
+    fail "vehicle port capture '$received' differs from the logged frame '$logged'"
   fi
 else
   fail "selftest ELF missing"
@@ -252,10 +252,11 @@ FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller
 echo "--> controller without a map (erased map flash region): reports it and waits"
 timeout 8 qemu-system-arm -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \
-  -serial "file:$work/uart0-nomap.bin" -kernel "$elf_dir/controller" >"$work/raw.defmt"
+  -serial "file:$work/uart0-nomap.bin" -serial "file:$work/uart1-nomap.bin" \
+  -kernel "$elf_dir/controller" >"$work/raw.defmt"
 status=$?
 defmt-print -e "$elf_dir/controller" <"$work/raw.defmt" | tee "$work/nomap.log"
-frames=$(od -An -v -tx1 "$work/uart0-nomap.bin" 2>/dev/null | tr ' ' '\n' | grep -c '^00$')
+frames=$(od -An -v -tx1 "$work/uart1-nomap.bin" 2>/dev/null | tr ' ' '\n' | grep -c '^00$')
 if [ "$status" -eq 124 ] && grep -q 'no usable map' "$work/nomap.log" && [ "$frames" -ge 2 ]; then
   pass "controller without a map waits, logs it and sends NoMap frames ($frames)"
 else

@@ -1,5 +1,5 @@
-//! The controller loop: LMS511 telegrams in over the board's serial port, a pose frame out on
-//! the same port after every scan.
+//! The controller loop: LMS511 telegrams in over the board's lidar port, wheel odometry in
+//! and a pose frame out after every scan on its vehicle port.
 //!
 //! **Start-up.** The board's map flash region holds the stored map (loc-core's map flash
 //! image, `LCMI`, from its first byte: `host-sim export-map --format image`), queried in
@@ -242,12 +242,12 @@ pub fn pose_status(status: &Status) -> PoseStatus {
     }
 }
 
-/// Sends `frame` on the board's serial port (a failed write is logged, not fatal).
+/// Sends `frame` on the board's vehicle port (a failed write is logged, not fatal).
 fn send<B: Board>(board: &mut B, frame: &PoseFrame) {
     use embedded_io::Write;
     let mut buf = [0u8; MAX_FRAME_BYTES];
     if let Ok(bytes) = frame.encode(&mut buf) {
-        if board.serial().write_all(bytes).is_err() {
+        if board.vehicle_serial().write_all(bytes).is_err() {
             defmt::warn!("pose frame not sent: UART error");
         }
     }
@@ -373,7 +373,7 @@ pub fn run<B: Board>(
         // The session reads the clock a few times per poll; one reading per poll suffices.
         let now_ms = board.now_ms();
         let clock = move || now_ms;
-        odometry.poll(board.odometry_serial(), now_ms);
+        odometry.poll(board.vehicle_serial(), now_ms);
         let telegram = match session.poll(&mut FixedLink(board.serial()), &clock) {
             Event::Scan(telegram) => Some(telegram),
             Event::Failed(e) => {

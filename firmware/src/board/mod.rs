@@ -4,7 +4,7 @@
 //! The application (benchmark, self-tests, controller loop) is written against [`Board`]
 //! only. Exactly one board is compiled in, chosen by a cargo feature:
 //!
-//! | feature | board | lidar + pose UART | odometry UART | counter | log transport |
+//! | feature | board | lidar UART | vehicle UART (odometry in, poses out) | counter | log transport |
 //! |---|---|---|---|---|---|
 //! | `board-mps2-an386` (default) | QEMU MPS2 AN386, Cortex-M4F | CMSDK UART0 | CMSDK UART1 | SysTick under `-icount shift=0` (instructions) | defmt over semihosting |
 //! | `board-nucleo-h743zi` | ST NUCLEO-H743ZI2, STM32H743ZI Cortex-M7 | USART3 (ST-LINK VCP) | USART2 (PD5 TX, PD6 RX) | DWT CYCCNT (core cycles) | defmt over RTT |
@@ -62,15 +62,16 @@ pub trait Board {
     where
         Self: Sized;
 
-    /// The serial port wired to the lidar and the pose consumer.
+    /// The serial port wired to the lidar.
     fn serial(&mut self) -> &mut Self::Serial;
 
-    /// The serial port the vehicle's wheel odometry arrives on
-    /// (`controller_wire::OdometryFrame`s); read without blocking (`read_ready` first).
-    type OdometrySerial: embedded_io::Read + embedded_io::ReadReady;
+    /// The serial port wired to the vehicle computer: its wheel odometry comes in
+    /// (`controller_wire::OdometryFrame`s, read without blocking: `read_ready` first) and the
+    /// pose frames go out (`controller_wire::PoseFrame`).
+    type VehicleSerial: embedded_io::Read + embedded_io::Write + embedded_io::ReadReady;
 
-    /// The odometry port.
-    fn odometry_serial(&mut self) -> &mut Self::OdometrySerial;
+    /// The vehicle port.
+    fn vehicle_serial(&mut self) -> &mut Self::VehicleSerial;
 
     /// Starts the hardware watchdog: the board resets unless [`Board::feed_watchdog`] is
     /// called within `timeout_ms` (QEMU: the CMSDK watchdog; STM32: the IWDG).

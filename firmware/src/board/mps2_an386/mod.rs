@@ -26,7 +26,8 @@ pub const UART0_BASE: usize = 0x4000_4000;
 pub const PCLK_HZ: u32 = 25_000_000;
 /// UART0 line rate, baud (QEMU ignores it, but the divisor must be at least 16 to transmit).
 pub const UART0_BAUD: u32 = 115_200;
-/// Base address of UART1 (CMSDK APB UART), the odometry port: QEMU's second `-serial`.
+/// Base address of UART1 (CMSDK APB UART), the vehicle port (odometry in, poses out):
+/// QEMU's second `-serial`.
 pub const UART1_BASE: usize = 0x4000_5000;
 /// Base address of the CMSDK APB watchdog (clocked at [`PCLK_HZ`]).
 pub const WATCHDOG_BASE: usize = 0x4000_8000;
@@ -38,8 +39,8 @@ pub const MAP_REGION_ADDR: usize = 0x0030_0000;
 /// Length of the stored-map flash region, bytes.
 pub const MAP_REGION_LEN: usize = 0x0010_0000;
 
-/// The MPS2 AN386 board: UART0 (lidar, poses), UART1 (odometry) and the SysTick
-/// instruction counter.
+/// The MPS2 AN386 board: UART0 (lidar), UART1 (vehicle: odometry in, poses out), the CMSDK
+/// watchdog and the SysTick instruction counter.
 pub struct Mps2An386 {
     uart0: CmsdkUart,
     uart1: CmsdkUart,
@@ -49,7 +50,7 @@ pub struct Mps2An386 {
 
 impl Board for Mps2An386 {
     type Serial = CmsdkUart;
-    type OdometrySerial = CmsdkUart;
+    type VehicleSerial = CmsdkUart;
     const NAME: &'static str = "mps2-an386 (QEMU, Cortex-M4F)";
     const COUNTER_UNIT: CounterUnit = CounterUnit::Instructions;
     const COUNTER_RESOLUTION: u64 = INSTRUCTIONS_PER_TICK;
@@ -89,7 +90,7 @@ impl Board for Mps2An386 {
         &mut self.uart0
     }
 
-    fn odometry_serial(&mut self) -> &mut CmsdkUart {
+    fn vehicle_serial(&mut self) -> &mut CmsdkUart {
         &mut self.uart1
     }
 

@@ -3,8 +3,8 @@
 //!
 //! - Serial: USART3 on PD8 (TX) / PD9 (RX), the ST-LINK virtual COM port, 115200 8N1; wire
 //!   the LMS511's RS-232/RS-422 converter there (or change the pins in [`NucleoH743zi::take`]).
-//! - Odometry: USART2 on PD5 (TX) / PD6 (RX), 115200 8N1: the vehicle computer's
-//!   `controller_wire::OdometryFrame`s.
+//! - Vehicle port: USART2 on PD5 (TX) / PD6 (RX), 115200 8N1: the vehicle computer's
+//!   `controller_wire::OdometryFrame`s in, the pose frames out.
 //! - Counter: the DWT cycle counter (core cycles), extended to 64 bits in software.
 //! - Log: defmt over RTT, read by `probe-rs run`.
 //! - Exit: semihosting `SYS_EXIT` when a debugger is attached (probe-rs returns the status),
@@ -23,9 +23,9 @@ mod usart;
 pub use cycle_counter::CycleCounter;
 pub use usart::{Usart, UsartError};
 
-/// USART3: the lidar and the pose frames.
+/// USART3: the lidar.
 pub type Usart3 = Usart<pac::USART3>;
-/// USART2: the vehicle's odometry frames.
+/// USART2: the vehicle port (odometry frames in, pose frames out).
 pub type Usart2 = Usart<pac::USART2>;
 
 use stm32h7xx_hal::independent_watchdog::IndependentWatchdog;
@@ -40,7 +40,7 @@ use defmt_rtt as _;
 pub const SYS_CLK_HZ: u32 = 400_000_000;
 /// USART3 line rate, baud.
 pub const USART3_BAUD: u32 = 115_200;
-/// USART2 (odometry) line rate, baud.
+/// USART2 (vehicle port) line rate, baud.
 pub const USART2_BAUD: u32 = 115_200;
 
 /// Start of the stored-map flash region: the last 256 KiB (two 128 KiB sectors of bank 2)
@@ -51,8 +51,8 @@ pub const MAP_REGION_ADDR: usize = 0x081C_0000;
 /// Length of the stored-map flash region, bytes.
 pub const MAP_REGION_LEN: usize = 0x0004_0000;
 
-/// The NUCLEO-H743ZI2 board: USART3 (lidar, poses), USART2 (odometry) and the DWT cycle
-/// counter.
+/// The NUCLEO-H743ZI2 board: USART3 (lidar), USART2 (vehicle: odometry in, poses out), the
+/// IWDG and the DWT cycle counter.
 pub struct NucleoH743zi {
     usart3: Usart3,
     usart2: Usart2,
@@ -62,7 +62,7 @@ pub struct NucleoH743zi {
 
 impl Board for NucleoH743zi {
     type Serial = Usart3;
-    type OdometrySerial = Usart2;
+    type VehicleSerial = Usart2;
     const NAME: &'static str = "NUCLEO-H743ZI2 (STM32H743ZI, Cortex-M7 @ 400 MHz)";
     const COUNTER_UNIT: CounterUnit = CounterUnit::Cycles;
     const COUNTER_RESOLUTION: u64 = 1;
@@ -122,7 +122,7 @@ impl Board for NucleoH743zi {
         &mut self.usart3
     }
 
-    fn odometry_serial(&mut self) -> &mut Usart2 {
+    fn vehicle_serial(&mut self) -> &mut Usart2 {
         &mut self.usart2
     }
 

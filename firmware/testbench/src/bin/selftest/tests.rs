@@ -49,7 +49,9 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         "pose_frame_rejects_corruption",
         pose_frame_rejects_corruption,
     );
-    runner.run("uart_sends_pose_frame", || uart_sends_pose_frame(board));
+    runner.run("vehicle_port_sends_pose_frame", || {
+        vehicle_port_sends_pose_frame(board)
+    });
     runner.run("odometry_frames_arrive_on_uart1", || {
         odometry_arrives(board)
     });
@@ -167,17 +169,19 @@ fn pose_frame_rejects_corruption() -> TestResult {
 
 /// Sends a pose frame over the board UART (the runner captures UART0 to a file and checks
 /// it against the bytes logged here). Exercises the UART's transmit path end to end.
-fn uart_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
+fn vehicle_port_sends_pose_frame(board: &mut SelectedBoard) -> TestResult {
     use embedded_io::Write;
     let mut buf = [0u8; MAX_FRAME_BYTES];
     let encoded = sample_frame()
         .encode(&mut buf)
         .map_err(|_| "encode failed")?;
-    let serial = board.serial();
-    serial.write_all(encoded).map_err(|_| "UART write failed")?;
-    serial.flush().map_err(|_| "UART flush failed")?;
+    let serial = board.vehicle_serial();
+    serial
+        .write_all(encoded)
+        .map_err(|_| "vehicle port write failed")?;
+    serial.flush().map_err(|_| "vehicle port flush failed")?;
     defmt::println!(
-        "  uart0 frame {=usize} bytes: {=[u8]:02x}",
+        "  vehicle port frame {=usize} bytes: {=[u8]:02x}",
         encoded.len(),
         encoded
     );
@@ -196,7 +200,7 @@ fn odometry_arrives(board: &mut SelectedBoard) -> TestResult {
     while k < SCAN_COUNT && board.now_ms() < deadline_ms {
         // Byte by byte, so each frame is taken as it completes.
         use embedded_io::{Read, ReadReady};
-        let port = board.odometry_serial();
+        let port = board.vehicle_serial();
         if !port.read_ready().map_err(|_| "UART1 error")? {
             continue;
         }
