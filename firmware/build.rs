@@ -13,6 +13,8 @@ fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let memory = if env::var_os("CARGO_FEATURE_BOARD_NUCLEO_H743ZI").is_some() {
         "memory/nucleo-h743zi.x"
+    } else if env::var_os("CARGO_FEATURE_BOARD_STM32F407").is_some() {
+        "memory/stm32f407.x"
     } else {
         "memory/mps2-an386.x"
     };

@@ -59,7 +59,7 @@ if cargo build --release --workspace --bins; then pass "build"; else fail "build
 echo "--> clippy (firmware and testbench, -D warnings)"
 if cargo clippy --release --workspace --bins -- -D warnings; then pass "clippy"; else fail "clippy"; fi
 
-echo "--> build for the real board (NUCLEO-H743ZI2, stm32h7xx-hal, defmt-rtt)"
+echo "--> build for the real boards (NUCLEO-H743ZI2 with stm32h7xx-hal, STM32F407 with stm32f4xx-hal; defmt-rtt)"
 if CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins -p firmware \
   --no-default-features --features board-nucleo-h743zi \
   && CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins \
@@ -68,13 +68,19 @@ if CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --bins -p fi
 else
   fail "build nucleo-h743zi"
 fi
+if CARGO_TARGET_DIR=$target_dir/stm32f407 cargo clippy --release --bins -p firmware \
+  -p firmware-testbench --no-default-features --features firmware/board-stm32f407,firmware-testbench/board-stm32f407 -- -D warnings \
+  && CARGO_TARGET_DIR=$target_dir/stm32f407 cargo build --release --bins -p firmware \
+  -p firmware-testbench --no-default-features --features firmware/board-stm32f407,firmware-testbench/board-stm32f407; then
+  pass "build stm32f407 (clippy clean; linked into its 384 KiB code flash and 128 KiB SRAM)"
+else
+  fail "build stm32f407"
+fi
 
 # The testbench's recording: the map file and the start-pose record go into the board's map
 # flash region (the map from its first byte, the start pose in its last 4 KiB), as a flasher
 # would put them.
 out_dir=$(dirname "$(ls -t "$elf_dir"/build/firmware-testbench-*/out/recording.rs 2>/dev/null | head -1)")
-flash_map=(-device "loader,file=$out_dir/map.bin,addr=0x00300000"
-  -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 
 echo "--> selftest under QEMU"
 if [ -x "$elf_dir/selftest" ]; then
@@ -159,55 +165,34 @@ echo "     instructions executed; the instruction budget is the bench's, above)"
 # No -icount here: in icount mode QEMU feeds the UART one byte per main-loop turn, far
 # slower than the emulator's 25 Hz; instruction counts come from the bench above.
 HIL_SCANS=40
-host_target=${CARGO_TARGET_DIR:-$PWD/../target}
-if (cd .. && cargo build --release --quiet -p lms5xx-emulator) \
-  && FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller; then
-  recording=$out_dir/scans_colab.bin
-  "$host_target/release/lms5xx-emulator" --recording "$recording" --port 0 \
-    --duration-s "$QEMU_TIMEOUT_S" >"$work/emulator.log" 2>&1 &
-  emulator_pid=$!
-  port=""
-  for _ in $(seq 50); do
-    port=$(sed -nE 's/.*listening on 127\.0\.0\.1:([0-9]+).*/\1/p' "$work/emulator.log" | head -1)
-    [ -n "$port" ] && break
-    sleep 0.2
-  done
-  if [ -n "$port" ]; then
-    timeout "$QEMU_TIMEOUT_S" qemu-system-arm -machine mps2-an386 -nographic \
-      -semihosting-config enable=on,target=native \
-      -serial "tcp:127.0.0.1:$port" "${flash_map[@]}" \
-      -kernel "$elf_dir/controller" >"$work/raw.defmt"
-    status=$?
-    defmt-print -e "$elf_dir/controller" <"$work/raw.defmt" | tee "$work/controller.log"
-    tracking=$(grep -c ') Tracking in' "$work/controller.log")
-    echo "controller: $tracking of $HIL_SCANS scans tracking"
-    if [ "$status" -eq 0 ] && [ "$tracking" -ge $((HIL_SCANS * 9 / 10)) ]; then
-      pass "controller localised $HIL_SCANS emulated LMS511 scans over UART0"
-    else
-      fail "controller against the emulator (QEMU status $status, $tracking tracking)"
-    fi
-    # No odometry wired in this run (UART1 unconnected): it must say it predicts with
-    # constant velocity, on every pose frame.
-    if grep -q 'odometry: none within' "$work/controller.log" \
-      && [ "$(grep -c 'motion ConstantVelocity' "$work/controller.log")" -eq "$HIL_SCANS" ]; then
-      pass "controller without odometry says so and predicts with constant velocity"
-    else
-      fail "controller without odometry: no constant-velocity fallback reported"
-    fi
-    # Its RAM over that run, session buffer included: static + stack high-water mark.
-    ram=$(sed -nE 's/.*= ([0-9]+) bytes \(headroom left: true\).*/\1/p' "$work/controller.log" | tail -1)
-    if [ -n "$ram" ] && [ "$ram" -le $((96 * 1024)) ]; then
-      pass "controller RAM $ram bytes <= 96 KiB (static + stack high-water mark)"
-    else
-      fail "controller RAM '${ram:-not reported}' bytes over 96 KiB or not measured"
-    fi
+if FW_CONTROLLER_SCANS=$HIL_SCANS cargo build --release --quiet --bin controller; then
+  ./controller-vs-emulator.sh "$elf_dir/controller" "$work/controller.log"
+  status=$?
+  cat "$work/controller.log"
+  tracking=$(grep -c ') Tracking in' "$work/controller.log")
+  echo "controller: $tracking of $HIL_SCANS scans tracking"
+  if [ "$status" -eq 0 ] && [ "$tracking" -ge $((HIL_SCANS * 9 / 10)) ]; then
+    pass "controller localised $HIL_SCANS emulated LMS511 scans over UART0"
   else
-    fail "LMS5xx emulator did not start: $(cat "$work/emulator.log")"
+    fail "controller against the emulator (status $status, $tracking tracking)"
   fi
-  kill "$emulator_pid" 2>/dev/null
-  wait "$emulator_pid" 2>/dev/null
+  # No odometry wired in this run (UART1 unconnected): it must say it predicts with
+  # constant velocity, on every pose frame.
+  if grep -q 'odometry: none within' "$work/controller.log" \
+    && [ "$(grep -c 'motion ConstantVelocity' "$work/controller.log")" -eq "$HIL_SCANS" ]; then
+    pass "controller without odometry says so and predicts with constant velocity"
+  else
+    fail "controller without odometry: no constant-velocity fallback reported"
+  fi
+  # Its RAM over that run, session buffer included: static + stack high-water mark.
+  ram=$(sed -nE 's/.*= ([0-9]+) bytes \(headroom left: true\).*/\1/p' "$work/controller.log" | tail -1)
+  if [ -n "$ram" ] && [ "$ram" -le $((96 * 1024)) ]; then
+    pass "controller RAM $ram bytes <= 96 KiB (static + stack high-water mark)"
+  else
+    fail "controller RAM '${ram:-not reported}' bytes over 96 KiB or not measured"
+  fi
 else
-  fail "build of the emulator or the controller"
+  fail "build of the controller"
 fi
 
 echo "--> watchdog: a stall after 10 scans is reset by the CMSDK watchdog and the controller resumes"
@@ -215,23 +200,8 @@ echo "--> watchdog: a stall after 10 scans is reset by the CMSDK watchdog and th
 # run after the reset. The emulator keeps streaming through the stall, as a scanner on a
 # serial line would.
 if FW_CONTROLLER_SCANS=30 FW_STALL_AFTER_SCANS=10 cargo build --release --quiet --bin controller; then
-  "$host_target/release/lms5xx-emulator" --recording "$out_dir/scans_colab.bin" --port 0 \
-    --duration-s "$QEMU_TIMEOUT_S" >"$work/emulator-wd.log" 2>&1 &
-  emulator_pid=$!
-  port=""
-  for _ in $(seq 50); do
-    port=$(sed -nE 's/.*listening on 127\.0\.0\.1:([0-9]+).*/\1/p' "$work/emulator-wd.log" | head -1)
-    [ -n "$port" ] && break
-    sleep 0.2
-  done
-  timeout 120 qemu-system-arm -machine mps2-an386 -nographic \
-    -semihosting-config enable=on,target=native \
-    -serial "tcp:127.0.0.1:${port:-1}" "${flash_map[@]}" \
-    -kernel "$elf_dir/controller" >"$work/raw-wd.defmt"
+  QEMU_TIMEOUT_S=120 ./controller-vs-emulator.sh "$elf_dir/controller" "$work/watchdog.log"
   status=$?
-  kill "$emulator_pid" 2>/dev/null
-  wait "$emulator_pid" 2>/dev/null
-  defmt-print -e "$elf_dir/controller" <"$work/raw-wd.defmt" >"$work/watchdog.log"
   grep -vE 'skipped unrelated|^INFO  scan [0-9]+:' "$work/watchdog.log"
   after=$(sed -n '/restarted after a reset/,$p' "$work/watchdog.log")
   flagged=$(grep -c 'after reset true' <<<"$after")
@@ -241,7 +211,7 @@ if FW_CONTROLLER_SCANS=30 FW_STALL_AFTER_SCANS=10 cargo build --release --quiet 
     && grep -q 'the pose is stale' "$work/watchdog.log"; then
     pass "stall caught by the watchdog: reset, scanner session re-initialised, 30 scans localised after it ($flagged marked after_reset), stale pose reported while no scan came"
   else
-    fail "watchdog (QEMU status $status; $flagged poses marked after_reset)"
+    fail "watchdog (status $status; $flagged poses marked after_reset)"
   fi
 else
   fail "build of the stalling controller"

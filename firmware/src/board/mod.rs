@@ -8,12 +8,25 @@
 //! |---|---|---|---|---|---|
 //! | `board-mps2-an386` (default) | QEMU MPS2 AN386, Cortex-M4F | CMSDK UART0 | CMSDK UART1 | SysTick under `-icount shift=0` (instructions) | defmt over semihosting |
 //! | `board-nucleo-h743zi` | ST NUCLEO-H743ZI2, STM32H743ZI Cortex-M7 | USART3 (ST-LINK VCP) | USART2 (PD5 TX, PD6 RX) | DWT CYCCNT (core cycles) | defmt over RTT |
+//! | `board-stm32f407` | STM32F407 (e.g. STM32F4DISCOVERY, 168 MHz Cortex-M4F, 192 KiB RAM, 1 MiB flash) | USART2 (PA2 TX, PA3 RX) | USART3 (PD8 TX, PD9 RX) | DWT CYCCNT (core cycles) | defmt over RTT |
 
-#[cfg(all(feature = "board-mps2-an386", feature = "board-nucleo-h743zi"))]
+#[cfg(any(
+    all(feature = "board-mps2-an386", feature = "board-nucleo-h743zi"),
+    all(feature = "board-mps2-an386", feature = "board-stm32f407"),
+    all(feature = "board-nucleo-h743zi", feature = "board-stm32f407"),
+))]
 compile_error!(
-    "select exactly one board: build the STM32 board with \
-     `--no-default-features --features board-nucleo-h743zi`"
+    "select exactly one board: build an STM32 board with \
+     `--no-default-features --features board-nucleo-h743zi` (or `board-stm32f407`)"
 );
+
+// Shared by the STM32 boards.
+#[cfg(any(feature = "board-nucleo-h743zi", feature = "board-stm32f407"))]
+mod cycle_counter;
+#[cfg(any(feature = "board-nucleo-h743zi", feature = "board-stm32f407"))]
+mod debug_exit;
+#[cfg(any(feature = "board-nucleo-h743zi", feature = "board-stm32f407"))]
+mod polled_serial;
 
 #[cfg(feature = "board-mps2-an386")]
 pub mod mps2_an386;
@@ -24,6 +37,11 @@ pub use mps2_an386::Mps2An386 as SelectedBoard;
 pub mod nucleo_h743zi;
 #[cfg(feature = "board-nucleo-h743zi")]
 pub use nucleo_h743zi::NucleoH743zi as SelectedBoard;
+
+#[cfg(feature = "board-stm32f407")]
+pub mod stm32f407;
+#[cfg(feature = "board-stm32f407")]
+pub use stm32f407::Stm32f407 as SelectedBoard;
 
 /// How the process ends: the status a test harness (QEMU, probe-rs) sees.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]

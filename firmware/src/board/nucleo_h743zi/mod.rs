@@ -17,16 +17,19 @@
 //! target/thumbv7em-none-eabihf/release/bench` after
 //! `cargo build --release --no-default-features --features board-nucleo-h743zi`.
 
-mod cycle_counter;
-mod usart;
-
-pub use cycle_counter::CycleCounter;
-pub use usart::{Usart, UsartError};
+pub use super::cycle_counter::CycleCounter;
+pub use super::polled_serial::{LineError, Usart, UsartError};
 
 /// USART3: the lidar.
-pub type Usart3 = Usart<pac::USART3>;
+pub type Usart3 = Usart<stm32h7xx_hal::serial::Serial<pac::USART3>>;
 /// USART2: the vehicle port (odometry frames in, pose frames out).
-pub type Usart2 = Usart<pac::USART2>;
+pub type Usart2 = Usart<stm32h7xx_hal::serial::Serial<pac::USART2>>;
+
+impl LineError for stm32h7xx_hal::serial::Error {
+    fn is_overrun(&self) -> bool {
+        matches!(self, stm32h7xx_hal::serial::Error::Overrun)
+    }
+}
 
 use stm32h7xx_hal::independent_watchdog::IndependentWatchdog;
 use stm32h7xx_hal::{pac, prelude::*};
@@ -139,17 +142,6 @@ impl Board for NucleoH743zi {
     }
 
     fn exit(status: ExitStatus) -> ! {
-        // C_DEBUGEN: a debugger (probe-rs) is attached and will answer semihosting; without
-        // one the semihosting breakpoint would fault, so reset instead.
-        // SAFETY: read-only access to the core debug register DHCSR.
-        let debugger_attached = unsafe { (*cortex_m::peripheral::DCB::PTR).dhcsr.read() } & 1 != 0;
-        if debugger_attached {
-            let code = match status {
-                ExitStatus::Success => cortex_m_semihosting::debug::EXIT_SUCCESS,
-                ExitStatus::Failure => cortex_m_semihosting::debug::EXIT_FAILURE,
-            };
-            cortex_m_semihosting::debug::exit(code);
-        }
-        cortex_m::peripheral::SCB::sys_reset()
+        super::debug_exit::exit(status)
     }
 }

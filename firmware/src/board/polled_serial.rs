@@ -1,8 +1,5 @@
-//! A USART of the STM32H743 (USART3: lidar and poses; USART2: odometry) as an
-//! `embedded-io` byte stream, over the HAL's polled serial.
-
-use embedded_hal_02::serial::{Read as _, Write as _};
-use stm32h7xx_hal::serial::{Error as HalError, Serial};
+//! A USART of an STM32 (H743, F407) as an `embedded-io` byte stream, over its HAL's polled
+//! serial (the embedded-hal 0.2 `serial::Read` / `serial::Write` both HALs implement).
 
 /// What went wrong on the USART.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
@@ -34,29 +31,34 @@ impl embedded_io::Error for UsartError {
     }
 }
 
-impl From<HalError> for UsartError {
-    fn from(e: HalError) -> Self {
-        match e {
-            HalError::Overrun => UsartError::Overrun,
-            _ => UsartError::Line,
-        }
+/// A HAL's serial error, as far as the controller cares.
+pub trait LineError {
+    /// True for an overrun (a byte lost because the port was not read in time).
+    fn is_overrun(&self) -> bool;
+}
+
+fn line_error(e: &impl LineError) -> UsartError {
+    if e.is_overrun() {
+        UsartError::Overrun
+    } else {
+        UsartError::Line
     }
 }
 
 /// A USART, polled.
-pub struct Usart<U> {
-    serial: Serial<U>,
+pub struct Usart<S> {
+    serial: S,
     /// A byte `read_ready` pulled out of the receiver and not yet handed to `read`.
     pending: Option<u8>,
 }
 
-impl<U> Usart<U>
+impl<S> Usart<S>
 where
-    Serial<U>:
-        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+    S: embedded_hal_02::serial::Read<u8> + embedded_hal_02::serial::Write<u8>,
+    <S as embedded_hal_02::serial::Read<u8>>::Error: LineError,
 {
     /// Wraps the HAL's configured serial port.
-    pub fn new(serial: Serial<U>) -> Self {
+    pub fn new(serial: S) -> Self {
         Self {
             serial,
             pending: None,
@@ -70,23 +72,23 @@ where
         match self.serial.read() {
             Ok(b) => Ok(Some(b)),
             Err(nb::Error::WouldBlock) => Ok(None),
-            Err(nb::Error::Other(e)) => Err(e.into()),
+            Err(nb::Error::Other(e)) => Err(line_error(&e)),
         }
     }
 }
 
-impl<U> embedded_io::ErrorType for Usart<U>
+impl<S> embedded_io::ErrorType for Usart<S>
 where
-    Serial<U>:
-        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+    S: embedded_hal_02::serial::Read<u8> + embedded_hal_02::serial::Write<u8>,
+    <S as embedded_hal_02::serial::Read<u8>>::Error: LineError,
 {
     type Error = UsartError;
 }
 
-impl<U> embedded_io::Write for Usart<U>
+impl<S> embedded_io::Write for Usart<S>
 where
-    Serial<U>:
-        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+    S: embedded_hal_02::serial::Read<u8> + embedded_hal_02::serial::Write<u8>,
+    <S as embedded_hal_02::serial::Read<u8>>::Error: LineError,
 {
     fn write(&mut self, buf: &[u8]) -> Result<usize, UsartError> {
         for &b in buf {
@@ -100,10 +102,10 @@ where
     }
 }
 
-impl<U> embedded_io::ReadReady for Usart<U>
+impl<S> embedded_io::ReadReady for Usart<S>
 where
-    Serial<U>:
-        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+    S: embedded_hal_02::serial::Read<u8> + embedded_hal_02::serial::Write<u8>,
+    <S as embedded_hal_02::serial::Read<u8>>::Error: LineError,
 {
     fn read_ready(&mut self) -> Result<bool, UsartError> {
         if self.pending.is_none() {
@@ -113,10 +115,10 @@ where
     }
 }
 
-impl<U> embedded_io::Read for Usart<U>
+impl<S> embedded_io::Read for Usart<S>
 where
-    Serial<U>:
-        embedded_hal_02::serial::Read<u8, Error = HalError> + embedded_hal_02::serial::Write<u8>,
+    S: embedded_hal_02::serial::Read<u8> + embedded_hal_02::serial::Write<u8>,
+    <S as embedded_hal_02::serial::Read<u8>>::Error: LineError,
 {
     /// Blocks until at least one byte arrived, then returns every byte already waiting.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, UsartError> {
