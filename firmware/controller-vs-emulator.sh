@@ -35,6 +35,7 @@ timeout "$timeout_s" qemu-system-arm -machine mps2-an386 -nographic \
   -semihosting-config enable=on,target=native \
   -serial "tcp:127.0.0.1:$port" \
   -device "loader,file=$out_dir/map.bin,addr=0x00300000" \
+  -device "loader,file=$out_dir/config.bin,addr=0x003FE000" \
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000" \
   "$@" -kernel "$elf" >"$work/raw.defmt"
 status=$?

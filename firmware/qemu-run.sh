@@ -10,8 +10,9 @@
 #          QEMU_VEHICLE_OUT (where UART1's output, the pose frames, goes; default discarded),
 #          QEMU_MAP (the map image file flashed, default the recording's map.bin; the
 #          testbench also writes map_1km.bin and map_10km.bin, the same tunnel longer)
-# The testbench's recorded map and start pose go into the map flash region (the map at
-# 0x00300000, the start pose in its last 4 KiB at 0x003FF000), as a flasher would put them
+# The testbench's recorded map image, configuration record and start pose go into the map
+# flash region (the map at 0x00300000, the configuration in the 4 KiB before the last at
+# 0x003FE000, the start pose in its last 4 KiB at 0x003FF000), as a flasher would put them
 # (the selftest checks them; the controller uses them).
 set -uo pipefail
 elf=$1
@@ -20,6 +21,7 @@ out_dir=$(dirname "$(ls -t "$(dirname "$elf")"/build/firmware-testbench-*/out/re
 [ "$out_dir" = "." ] && out_dir=""
 loader=()
 [ -n "$out_dir" ] && loader=(-device "loader,file=$out_dir/${QEMU_MAP:-map.bin},addr=0x00300000"
+  -device "loader,file=$out_dir/config.bin,addr=0x003FE000"
   -device "loader,file=$out_dir/start_pose.bin,addr=0x003FF000")
 raw=$(mktemp)
 fifo_dir=$(mktemp -d)

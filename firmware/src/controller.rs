@@ -4,16 +4,19 @@
 //! **Start-up.** The board's map flash region holds the stored map (loc-core's map flash
 //! image, `LCMI`, from its first byte: `host-sim export-map --format image`), queried in
 //! place — the map never comes into RAM, so RAM does not grow with the tunnel's length —
-//! and, in its last [`START_POSE_BLOCK_BYTES`], the start pose
+//! the localiser's configuration record in the [`CONFIG_BLOCK_BYTES`] before the start-pose
+//! block (the sensor's layout and mounting, the matcher, the noise models: `host-sim
+//! export-map --config-out`; without one, loc-core's defaults), and, in its last
+//! [`START_POSE_BLOCK_BYTES`], the start pose
 //! (a loc-core [`StartPose`] record, `LCSP`: where the vehicle stands at power-up and how
-//! sure that is), both written by the flasher (`probe-rs download`, QEMU's `-device
+//! sure that is), all written by the flasher (`probe-rs download`, QEMU's `-device
 //! loader`). Without a valid map the controller never localises: it logs why, sends a
 //! [`PoseStatus::NoMap`] frame once a second and waits for a map to be flashed. Without a
 //! start pose (erased block) it starts at the tunnel's entrance (chainage 0, between the
 //! walls, heading along them) with 1 m / 0.1 rad 1σ; a damaged start pose is reported and
 //! treated the same way. (Relocalisation without a start pose comes with the next issues.)
 //!
-//! **Motion prediction.** The vehicle's wheel odometry arrives on the board's odometry port
+//! **Motion prediction.** The vehicle's wheel odometry arrives on the board's vehicle port
 //! (`controller_wire::OdometryFrame`, see [`crate::odometry`]); each scan is predicted with
 //! the odometry's motion since the previous scan. Without fresh odometry (none wired, the
 //! link down for more than [`ODOMETRY_STALE_MS`]) the scan is predicted with the motion
@@ -28,7 +31,7 @@ use loc_core::filter::FilterInitError;
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::localizer::{
-    Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
+    ConfigRecordError, Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
 };
 use loc_core::map::{MapError, MapImage, WallSide};
 use loc_core::scan::Scan;
@@ -65,9 +68,36 @@ pub enum StartSource {
     EntranceRecordUnusable,
 }
 
-/// The map flash region split into the map file and the start-pose block.
-pub fn split_region(region: &[u8]) -> (&[u8], &[u8]) {
-    region.split_at(region.len().saturating_sub(START_POSE_BLOCK_BYTES))
+/// The block before the start-pose block, where the configuration record lives.
+pub const CONFIG_BLOCK_BYTES: usize = 4096;
+
+/// The parts of the map flash region.
+#[derive(Debug, Clone, Copy)]
+pub struct RegionParts<'r> {
+    /// The map image (from the region's first byte) and its padding.
+    pub map: &'r [u8],
+    /// The configuration block: the [`CONFIG_BLOCK_BYTES`] before the start-pose block.
+    pub config: &'r [u8],
+    /// The start-pose block: the region's last [`START_POSE_BLOCK_BYTES`].
+    pub start: &'r [u8],
+}
+
+/// The map flash region split into its parts.
+pub fn split_region(region: &[u8]) -> RegionParts<'_> {
+    let (rest, start) = region.split_at(region.len().saturating_sub(START_POSE_BLOCK_BYTES));
+    let (map, config) = rest.split_at(rest.len().saturating_sub(CONFIG_BLOCK_BYTES));
+    RegionParts { map, config, start }
+}
+
+/// The localiser's configuration from the region's configuration record
+/// (`host-sim export-map --config-out`): the sensor's layout and mounting, the matcher,
+/// the noise models. `Ok(None)` when none was written (erased): loc-core's defaults apply.
+pub fn configuration(region: &[u8]) -> Result<Option<LocalizerConfig>, ConfigRecordError> {
+    match LocalizerConfig::from_record(split_region(region).config) {
+        Ok(c) => Ok(Some(c)),
+        Err(ConfigRecordError::NotPresent) => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Opens the map image at the start of `region` (the map flash region) in place as the
@@ -75,7 +105,7 @@ pub fn split_region(region: &[u8]) -> (&[u8], &[u8]) {
 /// and landmark). The map part of the region may hold padding after the image (erased
 /// `0xFF` or `0x00`), nothing else.
 pub fn load_map(region: &'static [u8]) -> Result<&'static MapImage<'static>, MapError> {
-    MAP.open(split_region(region).0)
+    MAP.open(split_region(region).map)
 }
 
 /// The start pose: the record in `region`'s start-pose block, else the entrance of `map`
@@ -85,7 +115,7 @@ pub fn start_pose(
     region: &[u8],
     map: &MapImage<'_>,
 ) -> Result<(StartSource, StartPose, Option<StartPoseError>), MapError> {
-    let record = StartPose::from_bytes(split_region(region).1);
+    let record = StartPose::from_bytes(split_region(region).start);
     if let Ok(start) = record {
         return Ok((StartSource::Record, start, None));
     }
@@ -140,6 +170,11 @@ impl<'m> Controller<'m> {
             last_pose: None,
             motion_source: MotionSource::None,
         }
+    }
+
+    /// Takes the vehicle's configuration (before [`Controller::start`]).
+    pub fn configure(&mut self, config: LocalizerConfig) {
+        self.localizer.set_config(config);
     }
 
     /// (Re)starts localising at `start`, forgetting the motion so far.
@@ -253,11 +288,12 @@ fn send<B: Board>(board: &mut B, frame: &PoseFrame) {
     }
 }
 
-/// Without a usable map: reports it once, then sends a [`PoseStatus::NoMap`] frame every
-/// second, for ever (a map must be flashed and the controller reset).
-pub fn wait_without_map<B: Board>(board: &mut B, error: &MapError) -> ! {
+/// Without a usable map (or with a damaged configuration record): reports `error` once,
+/// then sends a [`PoseStatus::NoMap`] frame every second, for ever (flash a map image, or
+/// the configuration record, and reset).
+pub fn wait_without_map<B: Board, E: defmt::Format>(board: &mut B, error: &E) -> ! {
     defmt::error!(
-        "no usable map in the map flash region: {}; not localising (flash a map file made by host-sim export-map, then reset)",
+        "no usable map or configuration in the map flash region: {}; not localising (flash what host-sim export-map writes, then reset)",
         error
     );
     let mut sequence = 0u32;

@@ -455,6 +455,11 @@ struct ExportArgs {
     /// building the scenario's map.
     #[arg(long, conflicts_with = "as_built")]
     map: Option<PathBuf>,
+    /// Also write the localiser's configuration record the controller reads from its map
+    /// flash region (loc-core's `LocalizerConfig`, `LCCF`): the scenario's sensor layout and
+    /// mounting, matcher, range noise, wall roughness and odometry noise.
+    #[arg(long)]
+    config_out: Option<PathBuf>,
 }
 
 impl ScenarioArgs {
@@ -911,15 +916,27 @@ fn start_pose_record(
 }
 
 fn cmd_export(a: &ExportArgs) -> Result<(), String> {
-    // A map file to convert needs no scenario (unless a start pose is asked for too).
-    let scenario = match (&a.map, &a.start_pose_out) {
-        (Some(_), None) => None,
+    // A map file to convert needs no scenario (unless a start pose or configuration is asked
+    // for too).
+    let scenario = match (&a.map, a.start_pose_out.is_some() || a.config_out.is_some()) {
+        (Some(_), false) => None,
         _ => {
             let s = load_scenario(&a.scenario)?;
             let world = s.build_world().map_err(|e| e.to_string())?;
             Some((s, world))
         }
     };
+    if let (Some(path), Some((s, _))) = (&a.config_out, &scenario) {
+        let mut buf = vec![0u8; loc_core::localizer::CONFIG_RECORD_MAX_BYTES];
+        let n = host_sim::estimator::localizer_config(s)
+            .to_record(&mut buf)
+            .map_err(|e| e.to_string())?;
+        write_file(path, &buf[..n])?;
+        eprintln!(
+            "wrote {} (configuration record, {n} bytes); flash it in the 4 KiB before the start pose",
+            path.display()
+        );
+    }
     if let (Some(path), Some((s, world))) = (&a.start_pose_out, &scenario) {
         let start = start_pose_record(s, world, a.start_pose.as_deref())?;
         write_file(path, &start.to_bytes())?;

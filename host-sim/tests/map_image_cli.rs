@@ -75,3 +75,31 @@ fn a_map_file_converts_to_an_image_that_answers_as_the_map() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--config-out`: the scenario's localiser configuration as the controller reads it.
+#[test]
+fn the_configuration_record_is_the_scenarios_localiser_configuration() {
+    let dir = std::env::temp_dir().join(format!("config-record-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("config.bin");
+    let out = host_sim(&[
+        "export-map",
+        "--scenario",
+        "paper-10m",
+        "--out",
+        dir.join("map.image").to_str().unwrap(),
+        "--format",
+        "image",
+        "--config-out",
+        path.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let record = loc_core::localizer::LocalizerConfig::from_record(&std::fs::read(&path).unwrap());
+    let scenario = host_sim::scenario::named::named("paper-10m").unwrap();
+    assert_eq!(record, Ok(host_sim::estimator::localizer_config(&scenario)));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -25,7 +25,7 @@ const RAD_PER_1E4_DEG: f32 = PI / 180.0 / 10_000.0;
 ///
 /// Beam `i` points at `start_angle_rad + i · step_rad` (sensor frame, counter-clockwise
 /// from the sensor's x axis). Ranges outside `[min_range_m, max_range_m]` are not trusted.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ScanGeometry {
     /// Angle of beam 0 in the sensor frame, radians.
     pub start_angle_rad: f32,
@@ -118,7 +118,7 @@ impl Default for ScanGeometry {
 }
 
 /// A scanner's beam layout plus where it sits on the vehicle.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SensorSetup {
     /// Beam layout in the sensor frame.
     pub geometry: ScanGeometry,

@@ -57,6 +57,16 @@ fn main() -> ! {
         Ok(map) => map,
         Err(e) => controller::wait_without_map(&mut board, &e),
     };
+    match controller::configuration(region) {
+        Ok(Some(config)) => {
+            defmt::println!("configuration from the flash record");
+            controller.configure(config);
+        }
+        Ok(None) => defmt::warn!(
+            "no configuration record: loc-core's defaults (the LMS511 at the vehicle origin looking forward)"
+        ),
+        Err(e) => controller::wait_without_map(&mut board, &e),
+    }
     let (source, mut start, record_error) = match controller::start_pose(region, map) {
         Ok(s) => s,
         Err(e) => controller::wait_without_map(&mut board, &e),

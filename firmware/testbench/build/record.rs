@@ -226,6 +226,13 @@ pub fn write_recordings(out: &Path) {
         sigma_theta_rad: INITIAL_SIGMA[1],
     };
     fs::write(out.join("start_pose.bin"), start.to_bytes()).expect("write start_pose.bin");
+    // The configuration record of this vehicle: the LMS511 at the origin looking forward,
+    // loc-core's defaults otherwise (what the scans above were simulated with).
+    let mut config = vec![0u8; loc_core::localizer::CONFIG_RECORD_MAX_BYTES];
+    let config_len = loc_core::localizer::LocalizerConfig::default()
+        .to_record(&mut config)
+        .expect("the configuration record writes");
+    fs::write(out.join("config.bin"), &config[..config_len]).expect("write config.bin");
     let landmarks = map.landmarks().len();
     let src = format!(
         "/// Scans in the recording.\npub const SCAN_COUNT: usize = {SCANS};\n\

@@ -13,7 +13,7 @@ use crate::math;
 /// speed and yaw rate are each off by up to these 1σ. Over `t` seconds unobserved, the
 /// forward and sideways 1σ grow by `speed_sd_mps · t` and the heading 1σ by
 /// `yaw_rate_sd_radps · t` (vehicle frame at the start of the gap).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CoastNoise {
     /// 1σ of the speed over the gap, m/s (a loader changes speed by ~0.5 m/s in a second).
     pub speed_sd_mps: f32,

@@ -59,7 +59,7 @@ impl OdometryIncrement {
 /// odometry is 1–3 % off in scale (`scale_sd` 3 %, drifting 0.5 % per 10 m as load and
 /// ground change); the rest, 1 % over 1 m forward and 16 mrad over 1 m in heading, covers
 /// slip that varies within metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OdometryNoise {
     /// `f`: forward 1σ as a fraction of `drift_length_m` driven (dimensionless).
     pub drift_fraction: f32,

@@ -21,7 +21,7 @@ use crate::matching::{MatchResult, Observability};
 use crate::math;
 
 /// The gate's false-rejection probability.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum GateProbability {
     /// Reject when a consistent match would be rejected 1 % of the time.
     P99,
@@ -51,7 +51,7 @@ impl GateProbability {
 
 /// Tuning of the match update. Which directions a match observes is the matcher's
 /// judgement ([`MatchResult::observability`]), not a setting of the update.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UpdateConfig {
     /// Chi-square gate.
     pub gate: GateProbability,

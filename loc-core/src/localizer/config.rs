@@ -11,7 +11,7 @@ use crate::scan::SensorSetup;
 use crate::strip::StripConfig;
 
 /// Everything a [`super::Localizer`] is tuned by.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LocalizerConfig {
     /// The scanner's beam layout and mounting on the vehicle. Informational for the
     /// localizer (scans arrive as [`crate::scan::Scan`]s already in the vehicle frame); build scans with

@@ -31,7 +31,7 @@ use crate::map::MapQuery;
 use crate::strip::{PointLabel, VehiclePoint};
 
 /// When the map explains a scan, and when it is trusted.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct IntegrityConfig {
     /// A landmark point is explained when map geometry lies within this of it at the
     /// matched pose, metres.

@@ -17,12 +17,16 @@
 //! no panics, bounded time per call.
 
 mod config;
+mod config_record;
 mod integrity;
 mod stages;
 mod start_pose;
 mod status;
 
 pub use config::LocalizerConfig;
+pub use config_record::{
+    ConfigRecordError, CONFIG_FORMAT_VERSION, CONFIG_MAGIC, CONFIG_RECORD_MAX_BYTES,
+};
 pub use integrity::{Integrity, IntegrityConfig, IntegrityMonitor};
 pub use stages::{Stage, StageObserver};
 pub use start_pose::{
@@ -339,6 +343,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// The configuration.
     pub fn config(&self) -> &LocalizerConfig {
         &self.config
+    }
+
+    /// Replaces the configuration (a controller built at compile time with the defaults
+    /// takes the vehicle's from flash before it starts; changing it while tracking is
+    /// allowed but the filter keeps its state).
+    pub fn set_config(&mut self, config: LocalizerConfig) {
+        self.config = config;
     }
 }
 

@@ -89,7 +89,7 @@ pub const MAX_MATCH_POINTS: usize = 512;
 pub const UNOBSERVED_VARIANCE: f32 = 1.0e6;
 
 /// Which matcher to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum MatcherKind {
     /// Modified Hausdorff distance over the K best points (the paper's matcher).
@@ -100,7 +100,7 @@ pub enum MatcherKind {
 }
 
 /// The reading of "the K best points" in the modified Hausdorff distance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum KBest {
     /// Mean of the K smallest distances (the paper's eq. 1). Default.
     #[default]
@@ -110,7 +110,7 @@ pub enum KBest {
 }
 
 /// Matcher tuning. Distances in metres, angles in radians.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MatchConfig {
     /// Which matcher.
     pub matcher: MatcherKind,

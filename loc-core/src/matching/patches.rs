@@ -33,7 +33,7 @@ use crate::geometry::Point2;
 pub const PATCHES_PER_SIDE: usize = 32;
 
 /// The wall-roughness model of a match.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RoughnessModel {
     /// 1σ deviation of the real walls from the stored map along their normal, metres
     /// (0: smooth walls, the plain point-to-line model).

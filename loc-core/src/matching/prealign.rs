@@ -21,7 +21,7 @@ use crate::math;
 use crate::strip::{PointLabel, StripSummary, VehiclePoint};
 
 /// Tuning of the pre-alignment. Distances in metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PrealignConfig {
     /// Run it at all.
     pub enabled: bool,

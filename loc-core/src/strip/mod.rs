@@ -86,7 +86,7 @@ impl PointLabel {
 }
 
 /// Tuning of the wall stripper. Distances in metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StripConfig {
     /// A point within this normal distance of a wall is a wall point, metres. Must exceed the
     /// range noise (3σ) plus wall roughness and stay below the smallest landmark height.

@@ -418,6 +418,10 @@ fn map_region_loads(board: &SelectedBoard) -> TestResult {
         "map flash region does not hold the recorded map (run QEMU with -device loader,file=…/map.bin,addr=0x00300000)",
     )?;
     let map = controller::load_map(region).map_err(|_| "map in the flash region did not open")?;
+    check(
+        controller::configuration(region) == Ok(Some(loc_core::localizer::LocalizerConfig::default())),
+        "the flashed configuration record did not read back as the recording's (run QEMU with -device loader,file=…/config.bin,addr=0x003FE000)",
+    )?;
     let (source, start, _) =
         controller::start_pose(region, map).map_err(|_| "no start pose from the flash region")?;
     let expected = replay::start_pose().map_err(|_| "the recorded start pose did not read")?;
@@ -426,7 +430,7 @@ fn map_region_loads(board: &SelectedBoard) -> TestResult {
         "the controller did not take the flashed start pose (run QEMU with -device loader,file=…/start_pose.bin,addr=0x003FF000)",
     )?;
     check(
-        region.len() > START_POSE_BLOCK_BYTES + MAP_BYTES_LEN,
+        region.len() > START_POSE_BLOCK_BYTES + controller::CONFIG_BLOCK_BYTES + MAP_BYTES_LEN,
         "map region too small for the map and the start-pose block",
     )
 }
