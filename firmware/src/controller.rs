@@ -235,8 +235,9 @@ impl<'m> Controller<'m> {
             covariance_upper: [c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]],
             status: pose_status(&status),
             motion: self.motion_source,
-            // The run loop marks poses after a reset.
+            // The run loop marks poses after a reset and times the scan.
             after_reset: false,
+            work: 0,
         }
     }
 
@@ -447,6 +448,7 @@ pub fn run<B: Board>(
         last_scan_ms = now_ms;
         next_stale_ms = now_ms + options.stale_after_ms;
         frame.after_reset = after_reset;
+        frame.work = u32::try_from(cost).unwrap_or(u32::MAX);
         after_reset &= frame.status != PoseStatus::Tracking;
         defmt::info!(
             "scan {=u32}: ({=f32}, {=f32}, {=f32}) {} in {=u64} {}, motion {}, after reset {=bool}",

@@ -17,6 +17,7 @@
 pub mod closed_loop;
 pub mod design;
 pub mod estimator;
+pub mod hil;
 pub mod landmarks;
 pub mod lidar;
 pub mod map_export;

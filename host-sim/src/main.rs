@@ -63,6 +63,10 @@ enum Command {
     },
     /// One closed-loop run: report (or --json) and files in --out.
     Run(RunArgs),
+    /// The firmware in the loop: the scenario's drive fed to the controller under QEMU
+    /// (emulated LMS511 on UART0, odometry in and poses out on UART1) in simulated time,
+    /// scored with the same metrics as run.
+    Hil(HilArgs),
     /// Writes the stored map of a scenario: postcard bytes (firmware) or JSON (people).
     ExportMap(ExportArgs),
     /// Localises from a recording (run --record DIR, or a real vehicle's) and reports the metrics.
@@ -188,6 +192,41 @@ struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum DialectArg {
+    /// CoLa-B (binary).
+    B,
+    /// CoLa-A (ASCII).
+    A,
+}
+
+#[derive(Args)]
+struct HilArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// The dialect the emulated LMS511 speaks (the controller probes CoLa-B, then CoLa-A).
+    #[arg(long, value_enum, default_value = "b")]
+    dialect: DialectArg,
+    /// The controller ELF (default: the firmware workspace's release build; build it with
+    /// `cd firmware && cargo build --release --bin controller`).
+    #[arg(long)]
+    elf: Option<PathBuf>,
+    /// Directory for the recording fed to the firmware, the flashed files, its estimates and
+    /// its defmt log (default: a temporary directory, removed afterwards).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Longest wait for one pose frame, seconds.
+    #[arg(long, default_value_t = 60.0)]
+    timeout_s: f64,
+    /// Run QEMU without `-icount` (its virtual clock follows the host's): the per-scan work
+    /// is then not instructions, and `instructions_per_scan_*` are left out.
+    #[arg(long)]
+    no_icount: bool,
+    /// Print the metrics as one JSON object (run's keys) instead of the report.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args)]
@@ -670,6 +709,77 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
                 dir.display()
             ))?;
         }
+    }
+    Ok(())
+}
+
+fn cmd_hil(a: &HilArgs) -> Result<(), String> {
+    check_output_dir("--out", a.out.as_deref())?;
+    let s = load_scenario(&a.scenario)?;
+    // Without --out, a folder of its own under the system's temporary directory, removed
+    // afterwards.
+    let (dir, remove) = match &a.out {
+        Some(d) => (d.clone(), false),
+        None => (
+            std::env::temp_dir().join(format!("host-sim-hil-{}", std::process::id())),
+            true,
+        ),
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let options = host_sim::hil::HilOptions {
+        elf: a.elf.clone().unwrap_or_else(host_sim::hil::default_elf),
+        dialect: match a.dialect {
+            DialectArg::A => lms5xx_emulator::DialectMode::Only(lidar_driver::Dialect::ColaA),
+            DialectArg::B => lms5xx_emulator::DialectMode::Only(lidar_driver::Dialect::ColaB),
+        },
+        timeout: Duration::from_secs_f64(a.timeout_s.max(1.0)),
+        icount: !a.no_icount,
+    };
+    let r = host_sim::hil::run(&s, &options, &dir).map_err(|e| e.to_string());
+    if remove {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let r = r?;
+    let m = r.replay.log.metrics();
+    let run_m = r.run.metrics();
+    let work_mean = r.work.iter().map(|&w| f64::from(w)).sum::<f64>() / r.work.len().max(1) as f64;
+    let work_max = r.work.iter().copied().max().unwrap_or(0);
+    if a.json {
+        let mut j: serde_json::Value =
+            serde_json::from_str(&MetricsJson::new(&r.replay.log, &m).to_json())
+                .map_err(|e| e.to_string())?;
+        if let (Some(o), false) = (j.as_object_mut(), a.no_icount) {
+            o.insert(
+                "instructions_per_scan_mean".into(),
+                work_mean.round().into(),
+            );
+            o.insert("instructions_per_scan_max".into(), work_max.into());
+        }
+        out(&j.to_string())?;
+    } else {
+        if !a.no_icount {
+            out(&format!(
+                "instructions per scan (controller end to end, QEMU -icount): mean {work_mean:.0}, max {work_max}"
+            ))?;
+        }
+        let tracking = r
+            .statuses
+            .iter()
+            .filter(|s| **s == controller_wire::PoseStatus::Tracking)
+            .count();
+        out(&format!(
+            "firmware in the loop ({} scans, {} tracking, {} predicted with the vehicle's odometry): position RMS {:.2} mm, heading RMS {:.3} mrad, max {:.1} mm
+host-sim run of the same drive: position RMS {:.2} mm, heading RMS {:.3} mrad, max {:.1} mm",
+            r.statuses.len(),
+            tracking,
+            r.with_odometry,
+            m.localizer.position_rms_m * 1e3,
+            m.localizer.heading_rms_rad * 1e3,
+            m.localizer.max_position_error_m * 1e3,
+            run_m.localizer.position_rms_m * 1e3,
+            run_m.localizer.heading_rms_rad * 1e3,
+            run_m.localizer.max_position_error_m * 1e3,
+        ))?;
     }
     Ok(())
 }
@@ -1413,6 +1523,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Demo { seed } => cmd_demo(*seed),
         Command::Run(a) => cmd_run(a),
+        Command::Hil(a) => cmd_hil(a),
         Command::ExportMap(a) => cmd_export(a),
         Command::Replay(a) => cmd_replay(a),
         Command::Optimize(a) => cmd_optimize(a),

@@ -70,6 +70,10 @@ pub struct PoseFrame {
     /// The controller restarted after a reset (watchdog, fault) and has not tracked since:
     /// the pose started from the last one stored before the reset, with a wide uncertainty.
     pub after_reset: bool,
+    /// The controller's work on this scan (prediction, telegram to scan, localisation) in its
+    /// counter's unit: instructions under QEMU with `-icount`, core cycles on silicon; 0 for
+    /// frames that answer no scan.
+    pub work: u32,
 }
 
 /// Why a frame could not be encoded or decoded.
@@ -112,6 +116,7 @@ impl PoseFrame {
             status: PoseStatus::NoMap,
             motion: MotionSource::None,
             after_reset: false,
+            work: 0,
         }
     }
 
@@ -125,5 +130,29 @@ impl PoseFrame {
     /// buffer is decoded in place.
     pub fn decode(frame: &mut [u8]) -> Result<Self, FrameError> {
         postcard::from_bytes_cobs(frame).map_err(|_| FrameError::Malformed)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_largest_frame_fits_its_bound_and_round_trips() {
+        let frame = PoseFrame {
+            sequence: u32::MAX,
+            x_m: -1.0e30,
+            y_m: f32::MAX,
+            theta_rad: -3.14,
+            covariance_upper: [f32::MAX; 6],
+            status: PoseStatus::MapUnconfirmed,
+            motion: MotionSource::ConstantVelocity,
+            after_reset: true,
+            work: u32::MAX,
+        };
+        let mut buf = [0u8; MAX_FRAME_BYTES];
+        let encoded = frame.encode(&mut buf).unwrap();
+        assert!(encoded.len() <= MAX_FRAME_BYTES);
+        assert_eq!(PoseFrame::decode(encoded).unwrap(), frame);
     }
 }

@@ -129,6 +129,7 @@ fn sample_frame() -> PoseFrame {
         status: PoseStatus::Tracking,
         motion: MotionSource::Odometry,
         after_reset: false,
+        work: 1_234_567,
     }
 }
 

@@ -1,0 +1,214 @@
+//! The vehicle's side of the controller's vehicle port (UART1 under QEMU, a TCP socket
+//! here): the odometry frame for each scan out, the controller's pose frame back, in lock
+//! step with the emulated scanner.
+
+use std::io::{self, Read, Write};
+use std::net::{Ipv4Addr, TcpListener, TcpStream};
+use std::path::Path;
+use std::sync::mpsc::Sender;
+use std::time::{Duration, Instant};
+
+use controller_wire::{
+    Assembled, FrameAssembler, OdometryFrame, PoseFrame, PoseStatus, MAX_FRAME_BYTES,
+    MAX_ODOMETRY_FRAME_BYTES,
+};
+
+use crate::record::csv_table::CsvTable;
+use crate::record::{files, odometry_csv};
+use crate::vehicle::SimPose;
+
+/// Why the lock step stopped.
+#[derive(Debug)]
+pub enum PortError {
+    /// No pose frame for this scan within the time-out.
+    NoPose {
+        /// The scan.
+        scan: usize,
+    },
+    /// The socket failed.
+    Io(io::Error),
+}
+
+/// The scans' times in a recording (`scanner.colab.times.csv`), seconds.
+pub fn scan_times(recording: &Path) -> Result<Vec<f64>, String> {
+    let t = CsvTable::read_columns(&recording.join(files::SCANNER_TIMES), &["t_s"])
+        .map_err(|e| e.to_string())?;
+    let c = t.column("t_s").map_err(|e| e.to_string())?;
+    Ok(t.rows().iter().map(|r| r[c]).collect())
+}
+
+/// The odometry frame the vehicle sends before each scan of `recording`: its cumulative
+/// odometry pose from every reading up to the scan's time.
+pub fn odometry_frames(recording: &Path) -> Result<Vec<OdometryFrame>, String> {
+    let times = scan_times(recording)?;
+    let log = odometry_csv::read(&recording.join(files::ODOMETRY)).map_err(|e| e.to_string())?;
+    let mut pose = SimPose::default();
+    let mut readings = log.readings.iter().peekable();
+    let mut frames = Vec::with_capacity(times.len());
+    for (k, &t_s) in times.iter().enumerate() {
+        while let Some(r) = readings.next_if(|r| r.t_s <= t_s + 1e-9) {
+            let (dx, dy, dth) = r.delta;
+            pose = pose.compose(SimPose::new(dx, dy, dth));
+        }
+        frames.push(OdometryFrame {
+            sequence: k as u32,
+            time_us: (t_s * 1e6).round() as u64,
+            x_m: pose.x_m as f32,
+            y_m: pose.y_m as f32,
+            theta_rad: pose.theta_rad as f32,
+        });
+    }
+    Ok(frames)
+}
+
+/// The listening end of the vehicle port.
+pub struct VehiclePort {
+    listener: TcpListener,
+}
+
+impl VehiclePort {
+    /// Listens on 127.0.0.1, any free port.
+    pub fn bind() -> io::Result<Self> {
+        Ok(Self {
+            listener: TcpListener::bind((Ipv4Addr::LOCALHOST, 0))?,
+        })
+    }
+
+    /// The port QEMU connects UART1 to.
+    pub fn port(&self) -> u16 {
+        self.listener.local_addr().map_or(0, |a| a.port())
+    }
+
+    /// Waits for QEMU, then for each scan: sends its odometry frame, lets the scanner send
+    /// the scan (`go`), and waits for the controller's pose frame (at most `timeout`).
+    pub fn run(
+        self,
+        frames: &[OdometryFrame],
+        go: &Sender<()>,
+        timeout: Duration,
+    ) -> Result<Vec<PoseFrame>, PortError> {
+        let mut stream = accept(&self.listener, timeout)?;
+        stream
+            .set_read_timeout(Some(RESEND_EVERY))
+            .map_err(PortError::Io)?;
+        let mut assembler: FrameAssembler<MAX_FRAME_BYTES> = FrameAssembler::new();
+        let mut poses = Vec::with_capacity(frames.len());
+        for (k, frame) in frames.iter().enumerate() {
+            let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
+            let bytes = frame
+                .encode(&mut buf)
+                .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
+            stream.write_all(bytes).map_err(PortError::Io)?;
+            if go.send(()).is_err() {
+                return Err(PortError::NoPose { scan: k });
+            }
+            let pose = next_pose(&mut stream, &mut assembler, bytes, timeout)
+                .ok_or(PortError::NoPose { scan: k })?;
+            poses.push(pose);
+        }
+        Ok(poses)
+    }
+}
+
+fn accept(listener: &TcpListener, timeout: Duration) -> Result<TcpStream, PortError> {
+    listener.set_nonblocking(true).map_err(PortError::Io)?;
+    let deadline = Instant::now() + timeout;
+    loop {
+        match listener.accept() {
+            Ok((s, _)) => {
+                s.set_nonblocking(false).map_err(PortError::Io)?;
+                return Ok(s);
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock && Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                return Err(PortError::NoPose { scan: 0 })
+            }
+            Err(e) => return Err(PortError::Io(e)),
+        }
+    }
+}
+
+/// How often the scan's odometry frame is sent again while the controller works on the
+/// scan (host time). A vehicle sends odometry at 50–100 Hz whatever the scanner does; without
+/// the repeats a long telegram (CoLa-A under `-icount`, where QEMU moves one UART byte per
+/// main-loop turn) would arrive more than the controller's 200 ms of virtual time after the
+/// odometry, which it would then call stale.
+const RESEND_EVERY: Duration = Duration::from_millis(20);
+
+/// The next pose frame that answers a scan (stale and no-map frames, sent while waiting for
+/// scans, are skipped), or `None` after `timeout`; `odometry` (the scan's odometry frame) is
+/// sent again every [`RESEND_EVERY`] meanwhile.
+fn next_pose(
+    stream: &mut TcpStream,
+    assembler: &mut FrameAssembler<MAX_FRAME_BYTES>,
+    odometry: &[u8],
+    timeout: Duration,
+) -> Option<PoseFrame> {
+    let deadline = Instant::now() + timeout;
+    let mut byte = [0u8; 256];
+    while Instant::now() < deadline {
+        let n = match stream.read(&mut byte) {
+            Ok(0) => return None,
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) =>
+            {
+                stream.write_all(odometry).ok()?;
+                continue;
+            }
+            Err(_) => return None,
+        };
+        for (i, &b) in byte[..n].iter().enumerate() {
+            if let Assembled::Frame(f) = assembler.push(b) {
+                if let Ok(pose) = PoseFrame::decode(f) {
+                    if !matches!(pose.status, PoseStatus::Stale | PoseStatus::NoMap) {
+                        // Lock step: nothing follows a scan's pose before the next scan.
+                        debug_assert_eq!(i + 1, n);
+                        return Some(pose);
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Writes the poses as an estimates file `replay --estimates` scores: one row per scan at
+/// the scan's time.
+pub fn write_estimates(path: &Path, recording: &Path, poses: &[PoseFrame]) -> Result<(), String> {
+    let times = scan_times(recording)?;
+    let mut text =
+        String::from("t_s,est_x_m,est_y_m,est_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad\n");
+    for (t_s, p) in times.iter().zip(poses) {
+        let c = p.covariance_upper;
+        text.push_str(&format!(
+            "{t_s:.6},{:.6},{:.6},{:.7},{:.6},{:.6},{:.7}\n",
+            p.x_m,
+            p.y_m,
+            p.theta_rad,
+            c[0].max(0.0).sqrt(),
+            c[3].max(0.0).sqrt(),
+            c[5].max(0.0).sqrt()
+        ));
+    }
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Writes every pose frame as the controller sent it, one row per scan: time, status, what
+/// the prediction rested on, whether after a reset, and the work on the scan.
+pub fn write_frames(path: &Path, recording: &Path, poses: &[PoseFrame]) -> Result<(), String> {
+    let times = scan_times(recording)?;
+    let mut text = String::from("scan,t_s,status,motion,after_reset,work\n");
+    for (k, (t_s, p)) in times.iter().zip(poses).enumerate() {
+        text.push_str(&format!(
+            "{k},{t_s:.6},{:?},{:?},{},{}\n",
+            p.status, p.motion, p.after_reset, p.work
+        ));
+    }
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
