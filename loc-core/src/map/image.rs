@@ -609,17 +609,7 @@ impl MapQuery for MapImage<'_> {
         radius_m: f32,
         f: &mut dyn FnMut(u16, Segment),
     ) {
-        search::for_each_segment_near(
-            self,
-            center,
-            radius_m,
-            &|ms| ms.kind.is_landmark(),
-            &mut |_, ms| {
-                if let FeatureKind::Landmark { id } = ms.kind {
-                    f(id, ms.segment);
-                }
-            },
-        );
+        search::for_each_landmark_segment_near(self, center, radius_m, f);
     }
 }
 

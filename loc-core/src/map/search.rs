@@ -315,3 +315,24 @@ pub(crate) fn for_each_segment_near<I: CellIndex>(
         }
     }
 }
+
+/// Calls `f(id, segment)` once for every landmark segment with a point within `radius_m` of
+/// `center` ([`MapQuery::for_each_landmark_segment_near`](super::MapQuery) for every layout).
+pub(crate) fn for_each_landmark_segment_near<I: CellIndex>(
+    index: &I,
+    center: Point2,
+    radius_m: f32,
+    f: &mut dyn FnMut(u16, Segment),
+) {
+    for_each_segment_near(
+        index,
+        center,
+        radius_m,
+        &|ms| ms.kind.is_landmark(),
+        &mut |_, ms| {
+            if let super::FeatureKind::Landmark { id } = ms.kind {
+                f(id, ms.segment);
+            }
+        },
+    );
+}

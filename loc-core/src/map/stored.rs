@@ -473,17 +473,7 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         radius_m: f32,
         f: &mut dyn FnMut(u16, Segment),
     ) {
-        search::for_each_segment_near(
-            &self.view(),
-            center,
-            radius_m,
-            &|ms| ms.kind.is_landmark(),
-            &mut |_, ms| {
-                if let FeatureKind::Landmark { id } = ms.kind {
-                    f(id, ms.segment);
-                }
-            },
-        );
+        search::for_each_landmark_segment_near(&self.view(), center, radius_m, f);
     }
 }
 
