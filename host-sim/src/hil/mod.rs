@@ -147,7 +147,8 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         .map_err(|e| host(&e))?
         .scans()
         .to_vec();
-    let frames = vehicle_port::odometry_frames(&recording).map_err(|e| host(&e))?;
+    let times = vehicle_port::scan_times(&recording).map_err(|e| host(&e))?;
+    let frames = vehicle_port::odometry_frames(&recording, &times).map_err(|e| host(&e))?;
     let (go, wait) = mpsc::channel::<()>();
     let mut pending = scans.into_iter();
     let source = move || {
@@ -190,8 +191,8 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
     })?;
     // 5. Scored like replay.
     let estimates = recording.join("firmware_estimates.csv");
-    vehicle_port::write_estimates(&estimates, &recording, &poses).map_err(|e| host(&e))?;
-    vehicle_port::write_frames(&out.join("firmware_frames.csv"), &recording, &poses)
+    vehicle_port::write_estimates(&estimates, &times, &poses).map_err(|e| host(&e))?;
+    vehicle_port::write_frames(&out.join("firmware_frames.csv"), &times, &poses)
         .map_err(|e| host(&e))?;
     let sources = ReplaySources::in_dir(&recording).map_err(|e| host(&e))?;
     let replay = replay::replay_with(

@@ -37,10 +37,9 @@ pub fn scan_times(recording: &Path) -> Result<Vec<f64>, String> {
     Ok(t.rows().iter().map(|r| r[c]).collect())
 }
 
-/// The odometry frame the vehicle sends before each scan of `recording`: its cumulative
-/// odometry pose from every reading up to the scan's time.
-pub fn odometry_frames(recording: &Path) -> Result<Vec<OdometryFrame>, String> {
-    let times = scan_times(recording)?;
+/// The odometry frame the vehicle sends before each scan of `recording` (at `times`, its
+/// [`scan_times`]): its cumulative odometry pose from every reading up to the scan's time.
+pub fn odometry_frames(recording: &Path, times: &[f64]) -> Result<Vec<OdometryFrame>, String> {
     let log = odometry_csv::read(&recording.join(files::ODOMETRY)).map_err(|e| e.to_string())?;
     let mut pose = SimPose::default();
     let mut readings = log.readings.iter().peekable();
@@ -147,11 +146,12 @@ fn next_pose(
     timeout: Duration,
 ) -> Option<PoseFrame> {
     let deadline = Instant::now() + timeout;
-    let mut byte = [0u8; 256];
+    // A byte at a time: whatever follows the pose frame stays in the socket for the next scan.
+    let mut byte = [0u8; 1];
     while Instant::now() < deadline {
-        let n = match stream.read(&mut byte) {
+        match stream.read(&mut byte) {
             Ok(0) => return None,
-            Ok(n) => n,
+            Ok(_) => {}
             Err(e)
                 if matches!(
                     e.kind(),
@@ -163,14 +163,10 @@ fn next_pose(
             }
             Err(_) => return None,
         };
-        for (i, &b) in byte[..n].iter().enumerate() {
-            if let Assembled::Frame(f) = assembler.push(b) {
-                if let Ok(pose) = PoseFrame::decode(f) {
-                    if !matches!(pose.status, PoseStatus::Stale | PoseStatus::NoMap) {
-                        // Lock step: nothing follows a scan's pose before the next scan.
-                        debug_assert_eq!(i + 1, n);
-                        return Some(pose);
-                    }
+        if let Assembled::Frame(f) = assembler.push(byte[0]) {
+            if let Ok(pose) = PoseFrame::decode(f) {
+                if !matches!(pose.status, PoseStatus::Stale | PoseStatus::NoMap) {
+                    return Some(pose);
                 }
             }
         }
@@ -179,9 +175,8 @@ fn next_pose(
 }
 
 /// Writes the poses as an estimates file `replay --estimates` scores: one row per scan at
-/// the scan's time.
-pub fn write_estimates(path: &Path, recording: &Path, poses: &[PoseFrame]) -> Result<(), String> {
-    let times = scan_times(recording)?;
+/// the scan's time (`times`, as [`scan_times`] read them).
+pub fn write_estimates(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
     let mut text =
         String::from("t_s,est_x_m,est_y_m,est_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad\n");
     for (t_s, p) in times.iter().zip(poses) {
@@ -201,8 +196,7 @@ pub fn write_estimates(path: &Path, recording: &Path, poses: &[PoseFrame]) -> Re
 
 /// Writes every pose frame as the controller sent it, one row per scan: time, status, what
 /// the prediction rested on, whether after a reset, and the work on the scan.
-pub fn write_frames(path: &Path, recording: &Path, poses: &[PoseFrame]) -> Result<(), String> {
-    let times = scan_times(recording)?;
+pub fn write_frames(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
     let mut text = String::from("scan,t_s,status,motion,after_reset,work\n");
     for (k, (t_s, p)) in times.iter().zip(poses).enumerate() {
         text.push_str(&format!(
