@@ -177,8 +177,13 @@ impl<'m> Controller<'m> {
         self.localizer.set_config(config);
     }
 
-    /// (Re)starts localising at `start`, forgetting the motion so far.
+    /// (Re)starts localising at `start`, forgetting the motion so far. Also computes the
+    /// beam directions of the configured sensor layout now rather than in the first scan's
+    /// budget (the scanner's telegrams carry that layout when the configuration was written
+    /// for it, as `host-sim export-map --config-out` does; a table already computed is kept).
     pub fn start(&mut self, start: &StartPose) -> Result<(), FilterInitError> {
+        self.scan
+            .prepare_directions(&self.localizer.config().sensor.geometry);
         self.localizer.initialise(start.pose, start.covariance())?;
         self.motion = OdometryIncrement::default();
         self.last_pose = None;

@@ -66,6 +66,9 @@ pub fn scan_match_config(localizer: &MatchConfig) -> MatchConfig {
     MatchConfig {
         matcher: MatcherKind::Icp,
         roughness: RoughnessModel::SMOOTH,
+        // Offline: every match runs to its optimum (the work budget is the controller's
+        // real-time bound, and a step cut short would be a factor's error).
+        max_work: u32::MAX,
         ..*localizer
     }
 }

@@ -110,7 +110,16 @@ pub(super) fn solve(problem: &Problem, max_iterations: usize) -> Result<Solution
     let mut opt = LevenMarquardt::new(params, graph);
     let steps = Rc::new(Cell::new(0));
     opt.add_observer(StepCounter(Rc::clone(&steps)));
-    let values = match opt.optimize(values) {
+    // factrs panics when its Cholesky factorisation fails (a singular or indefinite system,
+    // `expect` in its solver) instead of returning an error: caught here, so a degenerate
+    // survey is reported, not a crash.
+    let optimized = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| opt.optimize(values)))
+        .map_err(|_| {
+            GraphError::Solver(
+                "factrs' linear solver failed (the system is singular or not positive definite: a keyframe or landmark tied to too little)".into(),
+            )
+        })?;
+    let values = match optimized {
         Ok(v) | Err(OptError::MaxIterations(v)) => v,
         Err(e) => {
             return Err(GraphError::Solver(format!(

@@ -130,7 +130,8 @@ impl fmt::Display for UpdateRejection {
 
 impl Ekf {
     /// Updates with a match result: its pose and information, observed as the matcher
-    /// judged ([`MatchResult::observability`]).
+    /// judged ([`MatchResult::observability`]); a match cut short adds its
+    /// [`MatchResult::unconverged_sd_m`] to the measurement floor.
     pub fn update_with_match(
         &mut self,
         result: &MatchResult,
@@ -138,12 +139,17 @@ impl Ekf {
     ) -> Result<UpdateReport, UpdateRejection> {
         let d = &result.degeneracy;
         let hold = d.degenerate.then_some(d.direction_world);
+        // A match stopped short of its optimum measures less well than its information says.
+        let config = UpdateConfig {
+            min_measurement_sd_m: math::hypot(config.min_measurement_sd_m, result.unconverged_sd_m),
+            ..*config
+        };
         self.update(
             result.pose,
             &result.information,
             hold,
             &result.observability,
-            config,
+            &config,
         )
     }
 

@@ -45,7 +45,7 @@ impl fmt::Display for RejectReason {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Status {
-    /// No initial pose yet: call [`Localizer::initialise`].
+    /// No initial pose yet: call [`Localizer::initialise`](super::Localizer::initialise).
     NotInitialised,
     /// Odometry only since the initial pose (no scan yet).
     DeadReckoning,

@@ -47,6 +47,9 @@ pub struct GuidedMatch {
     pub prealign: Option<PrealignShift>,
     /// True when a second match was run after re-pre-aligning.
     pub rematched: bool,
+    /// The work of every match of the sequence, failed ones included (units of
+    /// [`MatchConfig::max_work`], which bounds it: the matches share one budget).
+    pub work: u32,
 }
 
 /// The predicted position's uncertainty, as the pre-alignment judges shifts by it: the
@@ -117,15 +120,28 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
+    workspace.reset_work();
+    // Each match gets what the earlier ones left of the scan's budget.
+    let match_scan =
+        |points: &[Point2], start: Pose2, config: &MatchConfig, workspace: &mut MatchWorkspace| {
+            let left = MatchConfig {
+                max_work: config.max_work.saturating_sub(workspace.work()),
+                ..*config
+            };
+            match_scan(map, points, start, &left, workspace)
+        };
+    let guided = |result, prealign, rematched, workspace: &MatchWorkspace| GuidedMatch {
+        result,
+        prealign,
+        rematched,
+        work: workspace.work(),
+    };
     // A prediction known to within `min_prior_sd_m` cannot profit from a pre-alignment:
     // skip its cost.
     let prior_sd_m = prior.sd_m();
     if prior_sd_m.is_finite() && prior_sd_m < prealign.min_prior_sd_m {
-        return Ok(GuidedMatch {
-            result: match_scan(map, selected, predicted, config, workspace)?,
-            prealign: None,
-            rematched: false,
-        });
+        let result = match_scan(selected, predicted, config, workspace)?;
+        return Ok(guided(result, None, false, workspace));
     }
     let mut coarse: heapless::Vec<Point2, COARSE_MATCH_POINTS> = heapless::Vec::new();
     let stride = selected.len().div_ceil(COARSE_MATCH_POINTS).max(1);
@@ -160,19 +176,16 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     let first_shift =
         prealign_along_tunnel(map, points, labels, strip, predicted, prealign).filter(plausible);
     let start = first_shift.map_or(predicted, |s| s.pose);
-    let Ok(first) = match_scan(map, &coarse, start, &coarse_config, workspace) else {
+    let Ok(first) = match_scan(&coarse, start, &coarse_config, workspace) else {
         // Too few coarse points or no coarse convergence: the full set decides alone.
-        return Ok(GuidedMatch {
-            result: match_scan(map, selected, start, config, workspace)?,
-            prealign: first_shift,
-            rematched: false,
-        });
+        let result = match_scan(selected, start, config, workspace)?;
+        return Ok(guided(result, first_shift, false, workspace));
     };
     let refine = |coarse_result: MatchResult, workspace: &mut MatchWorkspace| {
         if whole {
             Ok(coarse_result)
         } else {
-            match_scan(map, selected, coarse_result.pose, config, workspace)
+            match_scan(selected, coarse_result.pose, config, workspace)
         }
     };
     // A first pre-alignment that found its shift needs no second one.
@@ -182,17 +195,11 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
         prealign_along_tunnel(map, points, labels, strip, first.pose, prealign).filter(plausible)
     };
     if let Some(shift) = again {
-        if let Ok(second) = match_scan(map, &coarse, shift.pose, &coarse_config, workspace) {
-            return Ok(GuidedMatch {
-                result: refine(second, workspace)?,
-                prealign: Some(shift),
-                rematched: true,
-            });
+        if let Ok(second) = match_scan(&coarse, shift.pose, &coarse_config, workspace) {
+            let result = refine(second, workspace)?;
+            return Ok(guided(result, Some(shift), true, workspace));
         }
     }
-    Ok(GuidedMatch {
-        result: refine(first, workspace)?,
-        prealign: first_shift,
-        rematched: false,
-    })
+    let result = refine(first, workspace)?;
+    Ok(guided(result, first_shift, false, workspace))
 }

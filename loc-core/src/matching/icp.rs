@@ -5,7 +5,9 @@
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
 use super::patches::PatchSums;
-use super::{apply_step, conclude, step_size, MatchConfig, MatchError, Outcome};
+use super::{
+    apply_step, conclude, out_of_work, step_size, MatchConfig, MatchError, Outcome, Steps,
+};
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
 use crate::math;
@@ -15,6 +17,7 @@ pub(super) fn run<M: MapQuery>(
     points: &[Point2],
     initial: Pose2,
     config: &MatchConfig,
+    schedule: &mut AssociationSchedule,
     assoc: &mut [Association],
 ) -> Result<Outcome, MatchError> {
     let m = points.len().min(assoc.len());
@@ -25,9 +28,9 @@ pub(super) fn run<M: MapQuery>(
 
     let mut pose = initial;
     let mut last = None;
-    let mut last_step_m = f32::INFINITY;
+    let mut steps = Steps::new();
     let mut iterations = 0u16;
-    let mut schedule = AssociationSchedule::new();
+    let mut converged = false;
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
         schedule.run(map, points, pose, gate, assoc);
@@ -69,15 +72,24 @@ pub(super) fn run<M: MapQuery>(
             0.0,
         );
         let (small, len) = step_size(&step, config);
-        last_step_m = len;
+        steps.record(len);
         let rms = eq.rms_m();
         last = Some((pose, rms, eq));
-        if small {
+        converged = small;
+        if small || out_of_work(schedule.work(), config) {
             break;
         }
         pose = apply_step(pose, &step);
         // Outliers beyond 3× the current RMS drop out as the fit tightens.
         gate = (3.0 * rms).clamp(min_gate, gate);
     }
-    conclude(last, iterations, last_step_m, required, config)
+    conclude(
+        last,
+        iterations,
+        schedule.work(),
+        &steps,
+        converged,
+        required,
+        config,
+    )
 }

@@ -29,6 +29,15 @@
 //! after 1.25 cm / 0.000625 rad of motion ([`AssociationSchedule`]). Map searches dominate
 //! the cost; near convergence the wall segments no longer change.
 //!
+//! ## What a scan may cost
+//! The schedule counts the work ([`AssociationSchedule::work`]) and a scan's matching stops
+//! at [`MatchConfig::max_work`] (the guided sequence's matches share it), so no scan exceeds
+//! the controller's budget whatever its points and however its iterations go. A match stopped
+//! short of its optimum says how far it may still be ([`MatchResult::unconverged_sd_m`]), and
+//! the filter trusts it only that far; the next scan, predicted from it, finishes the job.
+//! The Hausdorff loop also ends when its steps flip back and forth between two association
+//! sets (each pulling the pose to the other's side), taking the middle.
+//!
 //! ## What to feed it
 //! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
 //! **decimated subset of wall points** (evenly spread along each wall). The walls carry the
@@ -43,7 +52,8 @@
 //!
 //! ## What it returns
 //! [`MatchResult`]: pose, 3×3 covariance `σ²·(ΣJᵀJ)⁻¹` from the point-to-line information of
-//! the final inliers (σ: range noise), iterations, cost, inliers, and a [`Degeneracy`]: the
+//! the final inliers (σ: range noise; plus the allowance of a match cut short), iterations,
+//! work, cost, inliers, and a [`Degeneracy`]: the
 //! smallest eigenvalue of the translation information (heading marginalised) and its
 //! direction in the world. Directions observed by less than `min_information_points` fully
 //! informative points are not moved by the matcher and get a huge variance
@@ -88,6 +98,43 @@ pub const MAX_MATCH_POINTS: usize = 512;
 /// Variance reported along directions the scan does not observe, m² (or rad²).
 pub const UNOBSERVED_VARIANCE: f32 = 1.0e6;
 
+/// The lengths of a loop's last two steps, metres (rotation counted at `rotation_scale_m`),
+/// from which a match stopped mid-descent estimates how far it still is from its optimum.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Steps {
+    last_m: f32,
+    previous_m: f32,
+}
+
+impl Steps {
+    /// Before the first step.
+    pub(crate) const fn new() -> Self {
+        Self {
+            last_m: f32::INFINITY,
+            previous_m: f32::INFINITY,
+        }
+    }
+
+    /// Records a step of length `len_m`.
+    pub(crate) fn record(&mut self, len_m: f32) {
+        self.previous_m = self.last_m;
+        self.last_m = len_m;
+    }
+
+    /// The distance still to go after the last step: Gauss–Newton on these costs converges
+    /// linearly, so with the steps shrinking by `ρ` the rest is `last · ρ / (1 − ρ)`; `ρ`
+    /// is the ratio of the last two steps, taken between 0.5 and 0.9 (one to nine more
+    /// steps: a loop that stalls or was damped counts as the slowest).
+    pub(crate) fn remaining_m(&self) -> f32 {
+        let rho = if self.previous_m > 0.0 && self.previous_m.is_finite() {
+            (self.last_m / self.previous_m).clamp(0.5, 0.9)
+        } else {
+            0.9
+        };
+        self.last_m * rho / (1.0 - rho)
+    }
+}
+
 /// Which matcher to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -128,6 +175,19 @@ pub struct MatchConfig {
     pub keep_within_sigmas: f32,
     /// Iteration limit.
     pub max_iterations: u16,
+    /// Work limit of one scan's matching (dimensionless units): a match stops after the
+    /// iteration that reaches it, and the guided sequence's matches share it
+    /// ([`match_scan_with_prealign`]). A unit is one point in one iteration (its
+    /// re-projection, K-best selection and normal equations: about 370 instructions on a
+    /// Cortex-M4F); a map search adds [`AssociationSchedule::SEARCH_WORK`]. It bounds a
+    /// scan's cost whatever its points and however the iterations go. On `tunnel-1km` a
+    /// tracking match (a full association of 100–200 points, 3–5 iterations) does about 770
+    /// (median), 1 % of them over 1600; the default 1500 caps the match at roughly
+    /// 0.55–0.7 M instructions, the rest of a scan costing about 0.6 M. A match stopped by
+    /// it is judged like one that ran out of iterations (its last step must be small) and
+    /// reports how far it may still be ([`MatchResult::unconverged_sd_m`]); `u32::MAX` for
+    /// no limit.
+    pub max_work: u32,
     /// Points farther than this from any map geometry are unassociated, metres.
     pub association_gate_m: f32,
     /// ICP's association gate never shrinks below this, metres (≈ 5σ).
@@ -158,6 +218,7 @@ impl MatchConfig {
         k_fraction: 0.8,
         keep_within_sigmas: 2.0,
         max_iterations: 30,
+        max_work: 1500,
         association_gate_m: 1.0,
         icp_min_gate_m: 0.05,
         range_noise_sigma_m: 0.01,
@@ -224,6 +285,15 @@ pub struct MatchResult {
     pub information: Matrix3<f32>,
     /// Iterations run.
     pub iterations: u16,
+    /// Work done, in the units of [`MatchConfig::max_work`].
+    pub work: u32,
+    /// 0 for a match that converged; for one stopped by the work budget or the iteration
+    /// limit while still stepping, an allowance for the distance still to go, metres (its
+    /// last step times one to nine, by how fast its steps were shrinking; rotation counted
+    /// at `rotation_scale_m`). It is in `covariance`, and the filter adds it to the
+    /// measurement noise of every observed direction, so a match cut short is trusted
+    /// only as far as it got.
+    pub unconverged_sd_m: f32,
     /// Final cost, metres: the trimmed mean or K-th distance (Hausdorff), RMS residual (ICP).
     pub cost_m: f32,
     /// Points used in the final estimate.
@@ -289,12 +359,15 @@ impl fmt::Display for MatchError {
     }
 }
 
-/// Scratch memory of one match (32 KiB: 512 associations of 56 bytes and 512 selection keys): keep one, in the [`crate::localizer`] or a
-/// static, rather than on a small stack.
+/// Scratch memory of one match (32 KiB: 512 associations of 56 bytes, 512 selection keys
+/// and the work count): keep one, in the [`crate::localizer`] or a static, rather than on a small stack.
+/// It also counts the work of the matches run with it (units of [`MatchConfig::max_work`],
+/// failed matches included) since [`MatchWorkspace::reset_work`].
 #[derive(Debug, Clone)]
 pub struct MatchWorkspace {
     assoc: [Association; MAX_MATCH_POINTS],
     keys: [DistanceKey; MAX_MATCH_POINTS],
+    work: u32,
 }
 
 impl Default for MatchWorkspace {
@@ -319,7 +392,18 @@ impl MatchWorkspace {
                 point: 0,
             }; MAX_MATCH_POINTS],
             keys: [(0.0, 0); MAX_MATCH_POINTS],
+            work: 0,
         }
+    }
+
+    /// The work of the matches run since the last [`MatchWorkspace::reset_work`].
+    pub const fn work(&self) -> u32 {
+        self.work
+    }
+
+    /// Starts counting the work again from zero.
+    pub fn reset_work(&mut self) {
+        self.work = 0;
     }
 }
 
@@ -349,18 +433,28 @@ pub fn match_scan<M: MapQuery>(
     if !points.iter().all(|p| p.is_finite()) {
         return Err(MatchError::NonFiniteInput);
     }
+    let mut schedule = AssociationSchedule::new();
     let outcome = match config.matcher {
         MatcherKind::Hausdorff => hausdorff::run(
             map,
             points,
             initial,
             config,
+            &mut schedule,
             &mut workspace.assoc,
             &mut workspace.keys,
         ),
-        MatcherKind::Icp => icp::run(map, points, initial, config, &mut workspace.assoc),
-    }?;
-    Ok(finish(outcome, config))
+        MatcherKind::Icp => icp::run(
+            map,
+            points,
+            initial,
+            config,
+            &mut schedule,
+            &mut workspace.assoc,
+        ),
+    };
+    workspace.work = workspace.work.saturating_add(schedule.work());
+    Ok(finish(outcome?, config))
 }
 
 /// What a matcher loop hands back before covariance and degeneracy are derived.
@@ -368,6 +462,8 @@ pub(crate) struct Outcome {
     pose: Pose2,
     equations: NormalEquations,
     iterations: u16,
+    work: u32,
+    unconverged_sd_m: f32,
     cost_m: f32,
 }
 
@@ -377,7 +473,9 @@ pub(crate) struct Outcome {
 pub(crate) fn conclude(
     last: Option<(Pose2, f32, NormalEquations)>,
     iterations: u16,
-    last_step_m: f32,
+    work: u32,
+    steps: &Steps,
+    converged: bool,
     required: usize,
     config: &MatchConfig,
 ) -> Result<Outcome, MatchError> {
@@ -387,6 +485,7 @@ pub(crate) fn conclude(
             required: crate::math::saturating_u16(required),
         });
     };
+    let last_step_m = steps.last_m;
     if last_step_m > 100.0 * crate::math::max(config.convergence_translation_m, 1.0e-6) {
         return Err(MatchError::DidNotConverge {
             iterations,
@@ -397,8 +496,15 @@ pub(crate) fn conclude(
         pose,
         equations,
         iterations,
+        work,
+        unconverged_sd_m: if converged { 0.0 } else { steps.remaining_m() },
         cost_m,
     })
+}
+
+/// Whether a loop has used up its budget ([`MatchConfig::max_work`]) with `work` done.
+pub(crate) fn out_of_work(work: u32, config: &MatchConfig) -> bool {
+    work >= config.max_work
 }
 
 /// Adds the pose increment `step` `(dx_m, dy_m, dtheta_rad)` (world frame) to `pose`.
@@ -426,16 +532,24 @@ fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
     let inv_sigma_sq = 1.0 / config.sigma_sq_m2();
     let information = o.equations.information_points * inv_sigma_sq;
     let threshold = config.min_information_per_m2();
+    let mut covariance = covariance_from_information(
+        &information,
+        threshold,
+        config.rotation_scale_m,
+        UNOBSERVED_VARIANCE,
+    );
+    let extra_m2 = o.unconverged_sd_m * o.unconverged_sd_m;
+    let l = config.rotation_scale_m;
+    covariance.m11 += extra_m2;
+    covariance.m22 += extra_m2;
+    covariance.m33 += extra_m2 / (l * l);
     MatchResult {
         pose: o.pose,
-        covariance: covariance_from_information(
-            &information,
-            threshold,
-            config.rotation_scale_m,
-            UNOBSERVED_VARIANCE,
-        ),
+        covariance,
         information,
         iterations: o.iterations,
+        work: o.work,
+        unconverged_sd_m: o.unconverged_sd_m,
         cost_m: o.cost_m,
         inliers: crate::math::saturating_u16(o.equations.count),
         degeneracy: degeneracy(&information, threshold, config.rotation_scale_m),

@@ -139,13 +139,25 @@ fn guided(
     prior: PositionPrior,
     config: &MatchConfig,
 ) -> GuidedMatch {
+    guided_with(map, truth, guess, prior, config).0.unwrap()
+}
+
+/// [`guided`] returning the match's result and the work its workspace counted (a failed
+/// match's too).
+fn guided_with(
+    map: &BruteMap,
+    truth: Pose2,
+    guess: Pose2,
+    prior: PositionPrior,
+    config: &MatchConfig,
+) -> (Result<GuidedMatch, MatchError>, u32) {
     let pts = map.scan(truth, 0.01, 7);
     let mut labels = [PointLabel::Outlier; 1141];
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
     let mut sel = MatchPoints::new();
     select_match_points(&pts, &labels, 100, f32::INFINITY, &mut sel);
     let mut ws = MatchWorkspace::new();
-    match_scan_with_prealign(
+    let r = match_scan_with_prealign(
         map,
         &pts,
         &labels,
@@ -156,8 +168,8 @@ fn guided(
         &PrealignConfig::default(),
         config,
         &mut ws,
-    )
-    .unwrap()
+    );
+    (r, ws.work())
 }
 
 #[test]
@@ -227,6 +239,70 @@ fn both_matchers_recover_pose_with_landmarks() {
             assert!(!r.degeneracy.degenerate, "{matcher:?} {:?}", r.degeneracy);
         }
     }
+}
+
+/// The work budget bounds a whole guided match (pre-alignment, coarse and final matches
+/// share it), whatever the matcher: each match stops after the iteration that reaches what
+/// the earlier ones left, so the total overshoots by at most one iteration of the final
+/// match (its points, each possibly searched).
+#[test]
+fn work_budget_bounds_the_guided_match() {
+    let map = BruteMap::tunnel(true);
+    let truth = Pose2::new(20.0, 0.3, 0.02);
+    let guess = Pose2::new(20.5, 0.2, 0.02 + 3f32.to_radians());
+    let mut cut_short = 0;
+    for matcher in [MatcherKind::Hausdorff, MatcherKind::Icp] {
+        let free = MatchConfig {
+            matcher,
+            max_work: u32::MAX,
+            ..MatchConfig::default()
+        };
+        let unlimited = guided(&map, truth, guess, PositionPrior::UNKNOWN, &free);
+        assert!(unlimited.work >= unlimited.result.work && unlimited.result.work > 0);
+        // The default budget does not cut this acquisition short.
+        let default = MatchConfig {
+            matcher,
+            ..MatchConfig::default()
+        };
+        let r = guided(&map, truth, guess, PositionPrior::UNKNOWN, &default);
+        assert_eq!(r.result.pose, unlimited.result.pose, "{matcher:?}");
+        // A budget of a third stops the sequence early, within one final iteration.
+        let budget = unlimited.work / 3;
+        let tight = MatchConfig {
+            max_work: budget,
+            ..free
+        };
+        let (cut, work) = guided_with(&map, truth, guess, PositionPrior::UNKNOWN, &tight);
+        // Stopped early: either a match cut short (judged like one out of iterations) or a
+        // coarser result; never more work than the budget and one final iteration.
+        let per_iteration = (1 + AssociationSchedule::SEARCH_WORK) * MAX_MATCH_POINTS as u32;
+        assert!(work < unlimited.work, "{matcher:?}: {cut:?}");
+        assert!(
+            work <= budget + per_iteration,
+            "{matcher:?}: {work} of {budget}"
+        );
+        if let Ok(c) = cut {
+            assert_eq!(c.work, work);
+            // Cut short, it says so, and its covariance covers the distance still to go.
+            cut_short += 1;
+            let r = &c.result;
+            assert!(r.unconverged_sd_m > 0.0, "{matcher:?}: {r:?}");
+            let (ex, ey) = (r.pose.x_m - truth.x_m, r.pose.y_m - truth.y_m);
+            assert!(
+                ex.abs() < 3.0 * r.covariance.m11.sqrt(),
+                "{matcher:?}: {ex} {r:?}"
+            );
+            assert!(
+                ey.abs() < 3.0 * r.covariance.m22.sqrt(),
+                "{matcher:?}: {ey} {r:?}"
+            );
+        }
+        assert_eq!(unlimited.result.unconverged_sd_m, 0.0, "{matcher:?}");
+    }
+    assert!(
+        cut_short > 0,
+        "no match was cut short: the check above saw nothing"
+    );
 }
 
 #[test]
