@@ -42,6 +42,7 @@ use static_cell::ConstStaticCell;
 use crate::board::{Board, ExitStatus};
 use crate::flash_map::{FlashMap, MAP};
 use crate::odometry::{OdometryInput, ODOMETRY_STALE_MS};
+use crate::stage_costs::{ScanStage, StageTimer};
 use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
@@ -243,19 +244,28 @@ impl<'m> Controller<'m> {
             // The run loop marks poses after a reset and times the scan.
             after_reset: false,
             work: 0,
+            stage_work: [0; 5],
         }
     }
 
     /// One scan as the vehicle runs it: [`Controller::predict`] (with `odometry` when fresh
-    /// odometry is at hand), [`Controller::load_scan`], [`Controller::localise`].
-    pub fn on_scan(
+    /// odometry is at hand), [`Controller::load_scan`], [`Controller::localise`], each stage
+    /// timed by `timer` (the frame's `stage_work` is what it measured).
+    pub fn on_scan<B: Board>(
         &mut self,
         telegram: &ScanData<'_>,
         odometry: Option<&OdometryIncrement>,
+        timer: &mut StageTimer<'_, B>,
     ) -> Result<PoseFrame, ScanInputError> {
+        let t0 = timer.now();
         self.predict(odometry);
+        timer.add_since(ScanStage::Filter, t0);
+        let t1 = timer.now();
         self.load_scan(telegram)?;
-        Ok(self.localise(u32::from(telegram.header.scan_counter), &mut ()))
+        timer.add_since(ScanStage::Scan, t1);
+        let mut frame = self.localise(u32::from(telegram.header.scan_counter), timer);
+        frame.stage_work = timer.costs.to_wire();
+        Ok(frame)
     }
 }
 
@@ -441,7 +451,8 @@ pub fn run<B: Board>(
             log_odometry_change(increment.is_some(), &odometry);
         }
         let t0 = board.counter_now();
-        let result = controller.on_scan(&telegram, increment.as_ref());
+        let result =
+            controller.on_scan(&telegram, increment.as_ref(), &mut StageTimer::new(&*board));
         let cost = board.counter_now() - t0;
         let mut frame = match result {
             Ok(frame) => frame,

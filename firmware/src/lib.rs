@@ -27,5 +27,6 @@ pub mod flash_map;
 pub mod odometry;
 pub mod ram;
 pub mod retained;
+pub mod stage_costs;
 
 pub use board::{Board, ExitStatus, SelectedBoard};

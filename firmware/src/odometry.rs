@@ -107,10 +107,19 @@ impl OdometryInput {
     /// The motion since the previous scan (vehicle frame at the previous scan) when fresh
     /// odometry is at hand at `now_ms` and was at the previous scan; remembers the frame
     /// for the next scan either way.
+    ///
+    /// The frame the previous scan used is not fresh, however recent: no frame came in a
+    /// whole scan period (a hiccup in the stream, or a frame still on the line when the
+    /// telegram completed), and its zero increment would tell the filter the vehicle stood
+    /// still (seen in the HIL under host load: a 210 Mahalanobis² rejection). That scan and
+    /// the next are predicted at constant velocity instead.
     pub fn increment_for_scan(&mut self, now_ms: u64) -> Option<OdometryIncrement> {
+        let used = self.at_last_scan.map(|f| f.sequence);
         let fresh = self
             .latest
-            .filter(|(_, at)| now_ms.saturating_sub(*at) <= ODOMETRY_STALE_MS)
+            .filter(|(f, at)| {
+                now_ms.saturating_sub(*at) <= ODOMETRY_STALE_MS && Some(f.sequence) != used
+            })
             .map(|(f, _)| f);
         let previous = core::mem::replace(&mut self.at_last_scan, fresh);
         Some(OdometryIncrement::between(

@@ -742,8 +742,7 @@ fn cmd_hil(a: &HilArgs) -> Result<(), String> {
     let r = r?;
     let m = r.replay.log.metrics();
     let run_m = r.run.metrics();
-    let work_mean = r.work.iter().map(|&w| f64::from(w)).sum::<f64>() / r.work.len().max(1) as f64;
-    let work_max = r.work.iter().copied().max().unwrap_or(0);
+    let ((work_mean, work_max), stage_work) = r.work_summary();
     if a.json {
         let mut j: serde_json::Value =
             serde_json::from_str(&MetricsJson::new(&r.replay.log, &m).to_json())
@@ -754,6 +753,17 @@ fn cmd_hil(a: &HilArgs) -> Result<(), String> {
                 work_mean.round().into(),
             );
             o.insert("instructions_per_scan_max".into(), work_max.into());
+            let stages: serde_json::Map<String, serde_json::Value> = controller_wire::STAGE_NAMES
+                .iter()
+                .zip(stage_work)
+                .map(|(name, (mean, max))| {
+                    (
+                        (*name).to_string(),
+                        serde_json::json!({ "mean": mean.round(), "max": max }),
+                    )
+                })
+                .collect();
+            o.insert("instructions_per_stage".into(), stages.into());
         }
         out(&j.to_string())?;
     } else {
@@ -761,6 +771,9 @@ fn cmd_hil(a: &HilArgs) -> Result<(), String> {
             out(&format!(
                 "instructions per scan (controller end to end, QEMU -icount): mean {work_mean:.0}, max {work_max}"
             ))?;
+            for (name, (mean, max)) in controller_wire::STAGE_NAMES.iter().zip(stage_work) {
+                out(&format!("  {name:<6} mean {mean:>9.0}, max {max:>9}"))?;
+            }
         }
         let tracking = r
             .statuses

@@ -1,9 +1,10 @@
 //! Replaying the recording through the product's [`Controller`]: the map and the start pose
 //! read from their flashed bytes as the controller reads them, each recorded telegram
-//! decoded and localised by the controller's own steps (predict with the recorded odometry,
-//! load the scan, localise), with the cost of each stage (loc-core's stages through its
-//! stage hook) and end to end, and the pose error against the recorded truth. Shared by the
-//! benchmark and the self-tests.
+//! decoded and localised by the controller's own scan step (`Controller::on_scan`: predict
+//! with the recorded odometry, load the scan, localise), with the cost of each stage as the
+//! pose frames carry it (plus the telegram's check, the session's work on the vehicle) and
+//! end to end, and the pose error against the recorded truth. Shared by the benchmark and
+//! the self-tests.
 
 use firmware::board::Board;
 use firmware::controller::Controller;
@@ -13,13 +14,14 @@ use loc_core::localizer::{StartPose, StartPoseError, Status};
 use loc_core::map::{MapError, MapImage};
 
 use crate::recorded::{self, ODOMETRY, SCAN_COUNT, TRUE_POSES};
-use crate::stage_stats::{BenchStage, StageCosts, StageStats, StageTimer};
+use crate::stage_stats::StageStats;
+use firmware::stage_costs::{ScanStage, StageCosts, StageTimer};
 
 /// Results of one replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReplayReport {
-    /// Cost of each stage per scan, indexed like [`BenchStage::ALL`].
-    pub stages: [StageStats; BenchStage::ALL.len()],
+    /// Cost of each stage per scan, indexed like [`ScanStage::ALL`].
+    pub stages: [StageStats; ScanStage::ALL.len()],
     /// The controller's whole per-scan work: prediction, telegram to scan, localisation.
     pub end_to_end: StageStats,
     /// The same without the first scan (which pulls the start pose's error in, the
@@ -82,7 +84,7 @@ pub fn replay<B: Board>(
         .start(&start)
         .map_err(|_| ReplayError::InitialPose)?;
     let mut report = ReplayReport {
-        stages: [StageStats::new(); BenchStage::ALL.len()],
+        stages: [StageStats::new(); ScanStage::ALL.len()],
         end_to_end: StageStats::new(),
         tracking: StageStats::new(),
         worst_scan: (0, StageCosts::default()),
@@ -93,24 +95,21 @@ pub fn replay<B: Board>(
     };
     for (k, &[x, y, th]) in TRUE_POSES.iter().enumerate() {
         let bytes = recorded::telegram(k).ok_or(ReplayError::Telegram(k))?;
+        // The telegram's check (the session's work in the product) counts for the scan stage;
+        // then the product's own scan step, timed by stage as in every pose frame.
+        let mut timer = StageTimer::new(board);
         let t0 = board.counter_now();
-        controller.predict(Some(&odometry(k)));
-        let t1 = board.counter_now();
         let telegram = Frame::new_checked(bytes)
             .ok()
             .and_then(|f| ScanData::new_checked(f).ok())
             .ok_or(ReplayError::Telegram(k))?;
-        controller
-            .load_scan(&telegram)
+        timer.add_since(ScanStage::Scan, t0);
+        let frame = controller
+            .on_scan(&telegram, Some(&odometry(k)), &mut timer)
             .map_err(|_| ReplayError::Telegram(k))?;
-        let t2 = board.counter_now();
-        let mut timer = StageTimer::new(board);
-        let frame = controller.localise(u32::from(telegram.header.scan_counter), &mut timer);
         let t3 = board.counter_now();
 
-        let mut costs = timer.costs;
-        costs.add(BenchStage::Filter, t1 - t0);
-        costs.add(BenchStage::Scan, t2 - t1);
+        let costs = timer.costs;
         for (s, c) in report.stages.iter_mut().zip(costs.0) {
             s.record(c);
         }

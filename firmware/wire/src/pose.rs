@@ -74,7 +74,15 @@ pub struct PoseFrame {
     /// counter's unit: instructions under QEMU with `-icount`, core cycles on silicon; 0 for
     /// frames that answer no scan.
     pub work: u32,
+    /// That work by stage, indexed like [`STAGE_NAMES`]: the telegram's conversion into a
+    /// scan, loc-core's strip, select and match stages, and the filter (the motion prediction
+    /// plus loc-core's update); their sum is `work` less the loop's own bookkeeping. All 0
+    /// for frames that answer no scan.
+    pub stage_work: [u32; 5],
 }
+
+/// The stages of [`PoseFrame::stage_work`], in order.
+pub const STAGE_NAMES: [&str; 5] = ["scan", "strip", "select", "match", "filter"];
 
 /// Why a frame could not be encoded or decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -117,6 +125,7 @@ impl PoseFrame {
             motion: MotionSource::None,
             after_reset: false,
             work: 0,
+            stage_work: [0; 5],
         }
     }
 
@@ -149,6 +158,7 @@ mod tests {
             motion: MotionSource::ConstantVelocity,
             after_reset: true,
             work: u32::MAX,
+            stage_work: [u32::MAX; 5],
         };
         let mut buf = [0u8; MAX_FRAME_BYTES];
         let encoded = frame.encode(&mut buf).unwrap();

@@ -113,6 +113,35 @@ pub struct HilResult {
     /// The firmware's work on each scan (its `PoseFrame::work`): instructions with
     /// [`HilOptions::icount`], else QEMU's virtual time in the counter's unit.
     pub work: Vec<u32>,
+    /// The same work by stage on each scan (its `PoseFrame::stage_work`, indexed like
+    /// `controller_wire::STAGE_NAMES`).
+    pub stage_work: Vec<[u32; 5]>,
+}
+
+impl HilResult {
+    /// Mean and maximum of the work per scan, end to end and by stage (in
+    /// `controller_wire::STAGE_NAMES` order): `(mean, max)` each.
+    pub fn work_summary(&self) -> ((f64, u32), [(f64, u32); 5]) {
+        let mean_max = |v: &mut dyn Iterator<Item = u32>| {
+            let (mut n, mut sum, mut max) = (0usize, 0.0f64, 0u32);
+            for w in v {
+                n += 1;
+                sum += f64::from(w);
+                max = max.max(w);
+            }
+            (sum / n.max(1) as f64, max)
+        };
+        let total = mean_max(&mut self.work.iter().copied());
+        let stages = core::array::from_fn(|i| {
+            mean_max(
+                &mut self
+                    .stage_work
+                    .iter()
+                    .map(|s| s.get(i).copied().unwrap_or(0)),
+            )
+        });
+        (total, stages)
+    }
 }
 
 /// Default place of the controller ELF: the firmware workspace's release build.
@@ -215,6 +244,7 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
             .filter(|p| p.motion == controller_wire::MotionSource::Odometry)
             .count(),
         work: poses.iter().map(|p| p.work).collect(),
+        stage_work: poses.iter().map(|p| p.stage_work).collect(),
     })
 }
 

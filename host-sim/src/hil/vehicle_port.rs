@@ -195,14 +195,23 @@ pub fn write_estimates(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Resul
 }
 
 /// Writes every pose frame as the controller sent it, one row per scan: time, status, what
-/// the prediction rested on, whether after a reset, and the work on the scan.
+/// the prediction rested on, whether after a reset, and the work on the scan, end to end and
+/// by stage (`work_scan` … `work_filter`).
 pub fn write_frames(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
-    let mut text = String::from("scan,t_s,status,motion,after_reset,work\n");
+    let mut text = String::from("scan,t_s,status,motion,after_reset,work");
+    for name in controller_wire::STAGE_NAMES {
+        text.push_str(&format!(",work_{name}"));
+    }
+    text.push('\n');
     for (k, (t_s, p)) in times.iter().zip(poses).enumerate() {
         text.push_str(&format!(
-            "{k},{t_s:.6},{:?},{:?},{},{}\n",
+            "{k},{t_s:.6},{:?},{:?},{},{}",
             p.status, p.motion, p.after_reset, p.work
         ));
+        for w in p.stage_work {
+            text.push_str(&format!(",{w}"));
+        }
+        text.push('\n');
     }
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }

@@ -12,10 +12,11 @@
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::controller::Controller;
+use firmware::stage_costs::ScanStage;
 use firmware_testbench::instruction_loop;
 use firmware_testbench::recorded::{BEAMS_PER_SCAN, MAP_LANDMARKS, SCAN_COUNT};
 use firmware_testbench::replay;
-use firmware_testbench::stage_stats::{BenchStage, StageStats};
+use firmware_testbench::stage_stats::StageStats;
 
 /// End-to-end budget per 1141-point scan, instructions (about 9 ms of a 168 MHz Cortex-M4F
 /// at one instruction per cycle, well under the 40 ms scan period at 25 Hz).
@@ -103,7 +104,7 @@ fn main() -> ! {
         BEAMS_PER_SCAN,
         SelectedBoard::COUNTER_UNIT
     );
-    for (stage, s) in BenchStage::ALL.iter().zip(report.stages.iter()) {
+    for (stage, s) in ScanStage::ALL.iter().zip(report.stages.iter()) {
         print_stats(stage.name(), s);
     }
     print_stats("end-to-end (controller)", &report.end_to_end);
@@ -124,7 +125,7 @@ fn main() -> ! {
 
     let (worst_k, worst) = report.worst_scan;
     defmt::println!("worst scan {=usize}:", worst_k);
-    for (stage, cost) in BenchStage::ALL.iter().zip(worst.0) {
+    for (stage, cost) in ScanStage::ALL.iter().zip(worst.0) {
         defmt::println!(
             "  {=str}: {=u64} ({=u64} % of the budget)",
             stage.name(),

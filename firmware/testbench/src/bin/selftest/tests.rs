@@ -55,6 +55,10 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
     runner.run("odometry_frames_arrive_on_uart1", || {
         odometry_arrives(board)
     });
+    runner.run(
+        "a_scan_without_a_new_odometry_frame_is_not_a_standstill",
+        no_new_odometry_frame_is_no_increment,
+    );
     runner.run("damaged_map_bytes_are_rejected", || {
         damaged_map_is_rejected(map_copy)
     });
@@ -130,6 +134,7 @@ fn sample_frame() -> PoseFrame {
         motion: MotionSource::Odometry,
         after_reset: false,
         work: 1_234_567,
+        stage_work: [120_000, 330_000, 77_000, 600_000, 55_000],
     }
 }
 
@@ -240,6 +245,61 @@ fn odometry_arrives(board: &mut SelectedBoard) -> TestResult {
     check(
         counts.malformed == 1 && counts.lost == 0,
         "the line garbage was not counted as one malformed frame",
+    )
+}
+
+/// A scan for which no new odometry frame arrived (the previous scan's frame is still the
+/// latest) gets no increment — a zero one would say the vehicle stood still — nor does the
+/// next (its increment would span a scan already predicted); then odometry resumes.
+fn no_new_odometry_frame_is_no_increment() -> TestResult {
+    let mut input = OdometryInput::new();
+    let push = |input: &mut OdometryInput, sequence: u32, x_m: f32, now_ms: u64| {
+        let frame = controller_wire::OdometryFrame {
+            sequence,
+            time_us: u64::from(sequence) * 40_000,
+            x_m,
+            y_m: 0.0,
+            theta_rad: 0.0,
+        };
+        let mut buf = [0u8; controller_wire::MAX_ODOMETRY_FRAME_BYTES];
+        let Ok(bytes) = frame.encode(&mut buf) else {
+            return Err("odometry frame did not encode");
+        };
+        for &b in bytes.iter() {
+            input.push(b, now_ms);
+        }
+        Ok(())
+    };
+    push(&mut input, 1, 0.0, 0)?;
+    check(
+        input.increment_for_scan(0).is_none(),
+        "the first scan has no increment",
+    )?;
+    push(&mut input, 2, 0.1, 40)?;
+    let inc = input
+        .increment_for_scan(40)
+        .ok_or("a new frame gave no increment")?;
+    check(
+        loc_core::math::abs(inc.dx_m - 0.1) < 1e-6,
+        "wrong increment",
+    )?;
+    // No new frame by the next scan: no increment, though frame 2 is only 40 ms old.
+    check(
+        input.increment_for_scan(80).is_none(),
+        "the previous scan's frame was taken as fresh odometry (a standstill)",
+    )?;
+    push(&mut input, 4, 0.3, 110)?;
+    check(
+        input.increment_for_scan(120).is_none(),
+        "the scan after a gap took an increment spanning a predicted scan",
+    )?;
+    push(&mut input, 5, 0.4, 150)?;
+    let inc = input
+        .increment_for_scan(160)
+        .ok_or("odometry did not resume")?;
+    check(
+        loc_core::math::abs(inc.dx_m - 0.1) < 1e-6,
+        "wrong increment after the gap",
     )
 }
 
