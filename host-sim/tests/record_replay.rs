@@ -182,12 +182,11 @@ fn replays_a_real_lms511_capture_without_ground_truth() {
     assert_eq!(rep.source.scans, 174);
     assert_eq!(rep.source.time_source, TimeSource::Capture);
     // An office is no tunnel of the map: no scan is tracked. The matcher either fails to
-    // lay the office onto the tunnel (rejected: no convergence within the scan's work
-    // budget, mostly) or lays it and the integrity check does not confirm the map, which
-    // the replay says once that is a tenth of the scans or more.
+    // lay the office onto the tunnel (rejected) or lays it (perhaps cut short by the scan's
+    // work budget) and the integrity check does not confirm the map, which the replay says
+    // once that is a tenth of the scans or more.
     let rejected = rep.steps.iter().filter(|s| s.status.is_rejected()).count();
     let unconfirmed = rep.steps.len() - rejected;
-    assert!(rejected > 0);
     if unconfirmed * 10 < rep.steps.len() {
         assert!(rep.warnings.is_empty(), "{:?}", rep.warnings);
     } else {
