@@ -72,7 +72,7 @@ if CARGO_TARGET_DIR=$target_dir/stm32f407 cargo clippy --release --bins -p firmw
   -p firmware-testbench --no-default-features --features firmware/board-stm32f407,firmware-testbench/board-stm32f407 -- -D warnings \
   && CARGO_TARGET_DIR=$target_dir/stm32f407 cargo build --release --bins -p firmware \
   -p firmware-testbench --no-default-features --features firmware/board-stm32f407,firmware-testbench/board-stm32f407; then
-  pass "build stm32f407 (clippy clean; linked into its 384 KiB code flash and 128 KiB SRAM)"
+  pass "build stm32f407 (clippy clean; linked into its 512 KiB code flash and 128 KiB SRAM)"
 else
   fail "build stm32f407"
 fi

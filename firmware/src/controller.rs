@@ -12,9 +12,13 @@
 //! sure that is), all written by the flasher (`probe-rs download`, QEMU's `-device
 //! loader`). Without a valid map the controller never localises: it logs why, sends a
 //! [`PoseStatus::NoMap`] frame once a second and waits for a map to be flashed. Without a
-//! start pose (erased block) it starts at the tunnel's entrance (chainage 0, between the
-//! walls, heading along them) with 1 m / 0.1 rad 1σ; a damaged start pose is reported and
-//! treated the same way. (Relocalisation without a start pose comes with the next issues.)
+//! start pose (erased block) it relocalises: it searches the map for where the landmarks it
+//! sees while the vehicle drives fit (loc-core's `relocalise`) and sends
+//! [`PoseStatus::Relocalising`] frames until one place wins; a damaged start pose is
+//! reported and treated the same way. After a reset while running it starts from the last
+//! pose it stored (`crate::retained`); if that turns out wrong (the vehicle moved on while
+//! the controller was down), loc-core declares itself lost after a few metres of
+//! unconfirmed scans and relocalises.
 //!
 //! **Motion prediction.** The vehicle's wheel odometry arrives on the board's vehicle port
 //! (`controller_wire::OdometryFrame`, see [`crate::odometry`]); each scan is predicted with
@@ -33,7 +37,7 @@ use loc_core::geometry::Pose2;
 use loc_core::localizer::{
     ConfigRecordError, Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
 };
-use loc_core::map::{MapError, MapImage, WallSide};
+use loc_core::map::{MapError, MapImage};
 use loc_core::scan::Scan;
 use nalgebra::{Matrix3, Vector3};
 use scan_input::ScanInputError;
@@ -55,7 +59,7 @@ pub const START_POSE_BLOCK_BYTES: usize = 4096;
 /// heading radians (a loader at up to 10 m/s moves 0.4 m per 25 Hz scan).
 pub const UNMEASURED_MOTION_SIGMA: [f32; 3] = [0.3, 0.1, 0.03];
 
-/// 1σ of the default start at the tunnel's entrance: metres (each axis), radians.
+/// 1σ of the start from the last pose stored before a reset: metres (each axis), radians.
 pub const DEFAULT_START_SIGMA: [f32; 2] = [1.0, 0.1];
 
 /// Where the controller's start pose came from.
@@ -63,10 +67,12 @@ pub const DEFAULT_START_SIGMA: [f32; 2] = [1.0, 0.1];
 pub enum StartSource {
     /// The start-pose record of the map flash region.
     Record,
-    /// No record (erased): the tunnel's entrance.
-    Entrance,
-    /// A damaged or unreadable record: the tunnel's entrance (the record is ignored).
-    EntranceRecordUnusable,
+    /// No record (erased): no start pose, the controller relocalises.
+    Relocalise,
+    /// A damaged or unreadable record: ignored, the controller relocalises.
+    RelocaliseRecordUnusable,
+    /// After a reset while running: the last pose stored before it (`crate::retained`).
+    LastPoseBeforeReset,
 }
 
 /// The block before the start-pose block, where the configuration record lives.
@@ -109,41 +115,14 @@ pub fn load_map(region: &'static [u8]) -> Result<&'static MapImage<'static>, Map
     MAP.open(split_region(region).map)
 }
 
-/// The start pose: the record in `region`'s start-pose block, else the entrance of `map`
-/// (chainage 0 between the walls, heading along them) with [`DEFAULT_START_SIGMA`]. Also
-/// says which, and the record's error when it was unusable.
-pub fn start_pose(
-    region: &[u8],
-    map: &MapImage<'_>,
-) -> Result<(StartSource, StartPose, Option<StartPoseError>), MapError> {
-    let record = StartPose::from_bytes(split_region(region).start);
-    if let Ok(start) = record {
-        return Ok((StartSource::Record, start, None));
+/// The start pose: the record in `region`'s start-pose block, else `None` (the controller
+/// relocalises). Also says which, and the record's error when it was unusable.
+pub fn start_pose(region: &[u8]) -> (StartSource, Option<StartPose>, Option<StartPoseError>) {
+    match StartPose::from_bytes(split_region(region).start) {
+        Ok(start) => (StartSource::Record, Some(start), None),
+        Err(StartPoseError::NotPresent) => (StartSource::Relocalise, None, None),
+        Err(e) => (StartSource::RelocaliseRecordUnusable, None, Some(e)),
     }
-    let (Some(l), Some(r)) = (
-        map.wall_frame_at(WallSide::Left, 0.0),
-        map.wall_frame_at(WallSide::Right, 0.0),
-    ) else {
-        return Err(MapError::Corrupt {
-            part: "walls (no start point)",
-            index: 0,
-        });
-    };
-    let mid = l.anchor.add(r.anchor).scale(0.5);
-    let entrance = StartPose {
-        pose: Pose2::new(
-            mid.x_m,
-            mid.y_m,
-            loc_core::math::atan2(l.tangent.y_m, l.tangent.x_m),
-        ),
-        sigma_xy_m: DEFAULT_START_SIGMA[0],
-        sigma_theta_rad: DEFAULT_START_SIGMA[1],
-    };
-    Ok(match record {
-        Err(StartPoseError::NotPresent) => (StartSource::Entrance, entrance, None),
-        Err(e) => (StartSource::EntranceRecordUnusable, entrance, Some(e)),
-        Ok(_) => (StartSource::Record, entrance, None),
-    })
 }
 
 /// The localisation side of the controller (≈ 70 KiB), on the map image read in place
@@ -190,6 +169,20 @@ impl<'m> Controller<'m> {
         self.last_pose = None;
         self.motion_source = MotionSource::None;
         Ok(())
+    }
+
+    /// Starts localising without a pose (any pose so far is forgotten): loc-core's
+    /// relocalisation searches the map for the landmarks seen while the vehicle drives
+    /// (pose frames say [`PoseStatus::Relocalising`] until it locks). Also computes the
+    /// beam directions, as [`Controller::start`] does.
+    pub fn relocalise(&mut self) {
+        self.scan
+            .prepare_directions(&self.localizer.config().sensor.geometry);
+        self.localizer.forget_pose();
+        self.localizer.relocalise();
+        self.motion = OdometryIncrement::default();
+        self.last_pose = None;
+        self.motion_source = MotionSource::None;
     }
 
     /// The localizer (status, pose, last strip and match).
@@ -288,6 +281,7 @@ pub fn pose_status(status: &Status) -> PoseStatus {
         Status::Degenerate { .. } => PoseStatus::Degenerate,
         Status::NotInitialised => PoseStatus::NotInitialised,
         Status::MapUnconfirmed { .. } => PoseStatus::MapUnconfirmed,
+        Status::Relocalising { .. } => PoseStatus::Relocalising,
         // Any other status (a newer loc-core's): the scan did not update the pose.
         _ => PoseStatus::OdometryOnly,
     }

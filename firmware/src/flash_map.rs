@@ -4,7 +4,7 @@
 //! [`crate::controller::Controller::take`]): no large value is ever built on the stack.
 
 use loc_core::geometry::{Point2, Segment};
-use loc_core::map::{MapError, MapHit, MapImage, MapQuery, RayHit};
+use loc_core::map::{LandmarkBase, MapError, MapHit, MapImage, MapQuery, RayHit};
 
 /// A map image opened once for the program's life (the map flash region does not move).
 /// Until it is opened every query answers `None` (and a localiser on it sees no map).
@@ -63,5 +63,15 @@ impl MapQuery for FlashMap {
         if let Some(image) = self.image.get() {
             image.for_each_landmark_segment_near(center, radius_m, f);
         }
+    }
+
+    #[inline]
+    fn landmark_count(&self) -> u16 {
+        self.image.get().map_or(0, MapQuery::landmark_count)
+    }
+
+    #[inline]
+    fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
+        self.image.get()?.landmark_base(id)
     }
 }

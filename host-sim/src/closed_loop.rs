@@ -234,6 +234,19 @@ pub struct RunOptions<'a> {
     pub keep_scans: bool,
     /// Called now and then with the fraction of the drive done (0–1).
     pub progress: Option<&'a dyn Fn(f64)>,
+    /// Kidnappings: the vehicle moved along the tunnel where its odometry does not see it.
+    pub teleports: &'a [Teleport],
+}
+
+/// A kidnapping: once the vehicle has driven `at_distance_m`, it is moved `jump_m` along
+/// the centre line (negative: back), keeping its offset from the line and its heading
+/// relative to it, with no odometry of the move (a tow, wheels sliding on mud).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Teleport {
+    /// Distance driven when it happens, metres.
+    pub at_distance_m: f64,
+    /// Along the centre line, metres.
+    pub jump_m: f64,
 }
 
 /// Drives the scenario's route through `world`, feeding `estimator`.
@@ -291,6 +304,7 @@ pub fn run(
     let mut raycast_time = 0.0f64;
     let mut finished_at: Option<u64> = None;
     let mut last_progress = -1.0f64;
+    let mut teleports_done = 0usize;
 
     for step in 1..=max_steps {
         let before = vehicle.pose();
@@ -306,8 +320,17 @@ pub fn run(
             )
         };
         vehicle.step(tracks, VEHICLE_DT_S);
-        let after = vehicle.pose();
+        let mut after = vehicle.pose();
         distance += (after.x_m - before.x_m).hypot(after.y_m - before.y_m);
+        if let Some(k) = options.teleports.get(teleports_done) {
+            if distance >= k.at_distance_m {
+                teleports_done += 1;
+                after = teleported(line, after, chainage_hint, k.jump_m);
+                vehicle.teleport(after);
+                follower.jump(k.jump_m);
+                chainage_hint += k.jump_m;
+            }
+        }
         let w = vehicle.wheel_speeds();
         wheel_sum.left_mps += w.left_mps;
         wheel_sum.right_mps += w.right_mps;
@@ -382,6 +405,21 @@ pub fn run(
         initial_estimate,
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: raycast_time,
+    }
+}
+
+/// `pose` moved `jump_m` along `line` (chainage near `s_hint_m`), keeping its lateral
+/// offset and its heading relative to the line (clamped to the line's ends).
+fn teleported(line: &CenterLine, pose: SimPose, s_hint_m: f64, jump_m: f64) -> SimPose {
+    let proj = line.project(pose.x_m, pose.y_m, s_hint_m, 5.0);
+    let (_, _, h0) = line.pose_at(proj.s_m);
+    let s1 = (proj.s_m + jump_m).clamp(0.0, line.length_m());
+    let (x, y) = line.offset_point(s1, proj.lateral_m);
+    let (_, _, h1) = line.pose_at(s1);
+    SimPose {
+        x_m: x,
+        y_m: y,
+        theta_rad: pose.theta_rad + (h1 - h0),
     }
 }
 

@@ -90,6 +90,8 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
 /// loc-core's localiser over a stored map, driven like on the vehicle.
 pub struct LocCoreEstimator<'m> {
     localizer: Box<Localizer<'m, TunnelMap>>,
+    /// Start without a pose: relocalise (power-up anywhere).
+    without_initial_pose: bool,
     scan: Box<Scan>,
     matcher: MatcherChoice,
     last_reset: SimPose,
@@ -101,11 +103,20 @@ impl<'m> LocCoreEstimator<'m> {
     pub fn new(map: &'m TunnelMap, scenario: &Scenario) -> Self {
         Self {
             localizer: Box::new(Localizer::uninitialised(map, localizer_config(scenario))),
+            without_initial_pose: false,
             scan: Box::new(Scan::new()),
             matcher: scenario.localizer.matcher,
             last_reset: SimPose::default(),
             gaps: GapTracker::default(),
         }
+    }
+
+    /// The same localiser, started without a pose at each reset: it relocalises from the
+    /// landmarks it sees (a vehicle powered up anywhere in the tunnel). Until it locks, the
+    /// run's estimate is the reset's pose and its status `relocalising`.
+    pub fn without_initial_pose(mut self) -> Self {
+        self.without_initial_pose = true;
+        self
     }
 
     /// Coasts across a gap in the odometry (a rejected coast leaves the state unchanged).
@@ -134,6 +145,11 @@ impl Estimator for LocCoreEstimator<'_> {
         let (v, w) = ((sigma_m * sigma_m) as f32, (sigma_rad * sigma_rad) as f32);
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(v, v, w));
         let p = Pose2::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32);
+        if self.without_initial_pose {
+            self.localizer.forget_pose();
+            self.localizer.relocalise();
+            return;
+        }
         // Only a non-finite pose is refused; the run then reports "not-initialised".
         let _ = self.localizer.initialise(p, cov);
     }

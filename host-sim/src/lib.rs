@@ -29,6 +29,7 @@ pub mod output;
 pub mod plot;
 pub mod raycast;
 pub mod record;
+pub mod relocalise_study;
 pub mod replay;
 pub mod report;
 pub mod scenario;

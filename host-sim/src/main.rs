@@ -87,6 +87,10 @@ enum Command {
     /// estimated jointly with the trajectory, each landmark's uncertainty, what could not be
     /// surveyed (map, survey.json, landmarks.csv, report.txt and plots in --out).
     Survey(survey_cli::SurveyArgs),
+    /// Global relocalisation: power-up at random places without a pose (or, with --kidnap,
+    /// the vehicle moved 5-50 m where its odometry does not see), each run scored against
+    /// the truth: metres to tracking, wrong locks.
+    Relocalise(RelocaliseArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -187,6 +191,36 @@ struct RunArgs {
     #[arg(long)]
     map: Option<PathBuf>,
     /// Print the metrics as one JSON object instead of the report.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(Args)]
+struct RelocaliseArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Runs, each from its own random place.
+    #[arg(long, default_value_t = 100)]
+    runs: u32,
+    /// Metres driven per run (after the kidnapping, with --kidnap).
+    #[arg(long, default_value_t = 40.0)]
+    drive: f64,
+    /// Kidnapping runs: start with the true pose, then move the vehicle along the tunnel.
+    #[arg(long)]
+    kidnap: bool,
+    /// Metres driven before the kidnapping.
+    #[arg(long, default_value_t = 10.0)]
+    kidnap_after: f64,
+    /// Shortest and longest kidnapping, metres: `MIN,MAX`.
+    #[arg(long, default_value = "5,50")]
+    jump: String,
+    /// Seed of the start places and jumps.
+    #[arg(long, default_value_t = 1)]
+    study_seed: u64,
+    /// Print the study as JSON (every run) instead of the report.
     #[arg(long)]
     json: bool,
     /// No progress bar.
@@ -646,6 +680,7 @@ fn run_with_progress_on(
     let options = RunOptions {
         keep_scans,
         progress: Some(&cb),
+        ..Default::default()
     };
     let log = match map {
         Some(map) => host_sim::session::run_scenario_with_map(s, map, &options),
@@ -711,6 +746,50 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+fn cmd_relocalise(a: &RelocaliseArgs) -> Result<(), String> {
+    use host_sim::relocalise_study::{run_study, StudySpec};
+    let s = load_scenario(&a.scenario)?;
+    let bad = || format!("--jump {}: expected MIN,MAX in metres (e.g. 5,50)", a.jump);
+    let (lo, hi) = a.jump.split_once(',').ok_or_else(bad)?;
+    let jump_range_m: (f64, f64) = (
+        lo.trim().parse().map_err(|_| bad())?,
+        hi.trim().parse().map_err(|_| bad())?,
+    );
+    if !(jump_range_m.0 > 0.0 && jump_range_m.1 >= jump_range_m.0) {
+        return Err(bad());
+    }
+    if !(a.drive > 0.0 && a.kidnap_after >= 0.0) || a.runs == 0 {
+        return Err("--runs, --drive must be positive and --kidnap-after not negative".into());
+    }
+    let spec = StudySpec {
+        runs: a.runs,
+        drive_m: a.drive,
+        kidnap: a.kidnap,
+        kidnap_after_m: a.kidnap_after,
+        jump_range_m,
+        seed: a.study_seed,
+    };
+    let bar = progress_bar("relocalise", !a.quiet);
+    if let Some(b) = &bar {
+        b.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+    }
+    let cb = |f: f64| {
+        if let Some(b) = &bar {
+            b.set_position((f * 1000.0) as u64);
+        }
+    };
+    let result = run_study(&s, &spec, Some(&cb)).map_err(|e| e.to_string());
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let result = result?;
+    if a.json {
+        out(&serde_json::to_string_pretty(&result).map_err(|e| e.to_string())?)
+    } else {
+        out(&result.report())
+    }
 }
 
 fn cmd_hil(a: &HilArgs) -> Result<(), String> {
@@ -1544,6 +1623,7 @@ fn main() -> ExitCode {
         Command::CompareObjectives(a) => cmd_compare(a),
         Command::Design(a) => cmd_design(a),
         Command::Survey(a) => survey_cli::cmd_survey(a),
+        Command::Relocalise(a) => cmd_relocalise(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

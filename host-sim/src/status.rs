@@ -33,6 +33,7 @@ impl EstimatorStatus {
                 Status::Tracking => "tracking",
                 Status::Degenerate { .. } => "degenerate",
                 Status::MapUnconfirmed { .. } => "map-unconfirmed",
+                Status::Relocalising { .. } => "relocalising",
                 Status::MatchRejected { reason } => match reason {
                     RejectReason::Match(e) => match e {
                         MatchError::TooFewPoints { .. } => "rejected:too-few-points",
@@ -63,6 +64,14 @@ impl EstimatorStatus {
     /// The scan updated the pose except along the tunnel.
     pub fn is_degenerate(&self) -> bool {
         matches!(self, EstimatorStatus::Localizer(Status::Degenerate { .. }))
+    }
+
+    /// The localiser is searching the map for where the vehicle is.
+    pub fn is_relocalising(&self) -> bool {
+        matches!(
+            self,
+            EstimatorStatus::Localizer(Status::Relocalising { .. })
+        )
     }
 
     /// The scan was not used (refused by the matcher or the filter, or unusable).

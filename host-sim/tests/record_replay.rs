@@ -68,6 +68,7 @@ fn recorded(
     let options = RunOptions {
         keep_scans: true,
         progress: None,
+        ..Default::default()
     };
     let log = run_scenario(s, EstimatorChoice::Localizer, &options).unwrap();
     let (_, map_file) = record::scenario_map(s).unwrap();

@@ -46,6 +46,7 @@ pub mod localizer;
 pub mod map;
 pub mod matching;
 pub mod math;
+pub mod relocalise;
 pub mod rng;
 pub mod scan;
 pub mod strip;

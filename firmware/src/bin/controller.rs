@@ -9,7 +9,9 @@
 
 use cortex_m_rt::entry;
 use firmware::board::{Board, ExitStatus, SelectedBoard};
-use firmware::controller::{self, Controller, RunOptions, DEFAULT_RUN, SESSION_BUFFER_BYTES};
+use firmware::controller::{
+    self, Controller, RunOptions, StartSource, DEFAULT_RUN, SESSION_BUFFER_BYTES,
+};
 use loc_core::geometry::Pose2;
 use loc_core::localizer::StartPose;
 
@@ -67,10 +69,7 @@ fn main() -> ! {
         ),
         Err(e) => controller::wait_without_map(&mut board, &e),
     }
-    let (source, mut start, record_error) = match controller::start_pose(region, map) {
-        Ok(s) => s,
-        Err(e) => controller::wait_without_map(&mut board, &e),
-    };
+    let (mut source, mut start, record_error) = controller::start_pose(region);
     if boot.resets > 0 {
         defmt::warn!(
             "restarted after a reset while running (reset {=u32}): re-initialising the scanner session; poses marked after_reset until tracking",
@@ -78,34 +77,45 @@ fn main() -> ! {
         );
         // Where the vehicle last was beats the start-pose record: it has not gone far.
         if let Some((x, y, theta)) = boot.last_pose {
-            start = StartPose {
+            start = Some(StartPose {
                 pose: Pose2::new(x, y, theta),
                 sigma_xy_m: controller::DEFAULT_START_SIGMA[0],
                 sigma_theta_rad: controller::DEFAULT_START_SIGMA[1],
-            };
+            });
+            source = StartSource::LastPoseBeforeReset;
             defmt::warn!("  starting from the last pose before the reset");
         }
         controller::quiet_scanner(&mut board);
     }
     if let Some(e) = record_error {
-        defmt::warn!(
-            "start pose record unusable ({}): starting at the tunnel entrance",
-            e
-        );
+        defmt::warn!("start pose record unusable ({}): relocalising", e);
     }
     defmt::println!(
-        "controller on {=str}: map image of {=usize} bytes, {=usize} landmarks, read in place; start ({=f32}, {=f32}, {=f32}) from {}",
+        "controller on {=str}: map image of {=usize} bytes, {=usize} landmarks, read in place; start: {}",
         SelectedBoard::NAME,
         map.len_bytes(),
         map.landmark_count(),
-        start.pose.x_m,
-        start.pose.y_m,
-        start.pose.theta_rad,
         source
     );
-    if let Err(e) = controller.start(&start) {
-        defmt::error!("start pose rejected by the filter: {}", e);
-        SelectedBoard::exit(ExitStatus::Failure)
+    match start {
+        Some(start) => {
+            defmt::println!(
+                "  at ({=f32}, {=f32}, {=f32})",
+                start.pose.x_m,
+                start.pose.y_m,
+                start.pose.theta_rad
+            );
+            if let Err(e) = controller.start(&start) {
+                defmt::error!("start pose rejected by the filter: {}", e);
+                SelectedBoard::exit(ExitStatus::Failure)
+            }
+        }
+        None => {
+            defmt::println!(
+                "  no start pose: relocalising (searching the map for the landmarks seen while driving)"
+            );
+            controller.relocalise();
+        }
     }
     let options = RunOptions {
         scan_limit: SCAN_LIMIT,

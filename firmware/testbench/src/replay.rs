@@ -29,8 +29,15 @@ pub struct ReplayReport {
     pub tracking: StageStats,
     /// The scan with the largest end-to-end cost, and its per-stage costs.
     pub worst_scan: (usize, StageCosts),
-    /// Scans per status: tracking, degenerate, rejected, map unconfirmed.
-    pub statuses: [u32; 4],
+    /// Scans per status: tracking, degenerate, rejected, map unconfirmed, relocalising.
+    pub statuses: [u32; 5],
+    /// End-to-end cost of the scans the controller was relocalising on (the search in the
+    /// match stage's place).
+    pub relocalising: StageStats,
+    /// The first scan reported tracking (`None`: none).
+    pub first_tracking_scan: Option<usize>,
+    /// Scans reported tracking with the position more than 0.3 m off the truth.
+    pub wrong_tracking_scans: u32,
     /// Position error against the truth after the last scan, metres.
     pub final_error_m: f32,
     /// Heading error against the truth after the last scan, radians.
@@ -73,22 +80,41 @@ pub fn load_map<B: Board>(board: &B) -> Result<(&'static MapImage<'static>, u64)
     Ok((map, board.counter_now() - t0))
 }
 
+/// How a replay starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum ReplayStart {
+    /// At the recorded start pose (0.34 m and 0.02 rad off the truth), as from the
+    /// start-pose record.
+    RecordedPose,
+    /// Without a pose: the controller relocalises, as without a start-pose record.
+    Relocalise,
+}
+
 /// Replays every recorded telegram through `controller` (its map opened, see [`load_map`]),
-/// started afresh at the recorded start pose.
+/// started afresh as `start` says.
 pub fn replay<B: Board>(
     board: &B,
     controller: &mut Controller<'_>,
+    start: ReplayStart,
 ) -> Result<ReplayReport, ReplayError> {
-    let start = start_pose().map_err(|_| ReplayError::StartPose)?;
-    controller
-        .start(&start)
-        .map_err(|_| ReplayError::InitialPose)?;
+    match start {
+        ReplayStart::RecordedPose => {
+            let start = start_pose().map_err(|_| ReplayError::StartPose)?;
+            controller
+                .start(&start)
+                .map_err(|_| ReplayError::InitialPose)?;
+        }
+        ReplayStart::Relocalise => controller.relocalise(),
+    }
     let mut report = ReplayReport {
         stages: [StageStats::new(); ScanStage::ALL.len()],
         end_to_end: StageStats::new(),
         tracking: StageStats::new(),
         worst_scan: (0, StageCosts::default()),
-        statuses: [0; 4],
+        statuses: [0; 5],
+        relocalising: StageStats::new(),
+        first_tracking_scan: None,
+        wrong_tracking_scans: 0,
         final_error_m: f32::INFINITY,
         final_heading_error_rad: f32::INFINITY,
         max_late_error_m: 0.0,
@@ -126,8 +152,12 @@ pub fn replay<B: Board>(
             Status::Tracking => 0,
             Status::Degenerate { .. } => 1,
             Status::MapUnconfirmed { .. } => 3,
+            Status::Relocalising { .. } => 4,
             _ => 2,
         }] += 1;
+        if matches!(status, Status::Relocalising { .. }) {
+            report.relocalising.record(cost);
+        }
         defmt::info!(
             "scan {=usize}: {} stages {} pose ({=f32}, {=f32}, {=f32}) truth ({=f32}, {=f32}, {=f32})",
             k,
@@ -141,6 +171,12 @@ pub fn replay<B: Board>(
             th
         );
         let err = loc_core::math::hypot(frame.x_m - x, frame.y_m - y);
+        if status == Status::Tracking {
+            report.first_tracking_scan.get_or_insert(k);
+            if err > 0.3 {
+                report.wrong_tracking_scans += 1;
+            }
+        }
         if k >= SCAN_COUNT / 2 {
             report.max_late_error_m = report.max_late_error_m.max(err);
         }

@@ -33,6 +33,11 @@ pub enum PoseStatus {
     /// view have not fitted it lately (another tunnel's map, landmarks moved or damaged). The
     /// pose may be confidently wrong: do not steer by it.
     MapUnconfirmed,
+    /// Searching the map for where the vehicle is, from the landmarks seen while it drives
+    /// (at power-up without a start pose, or after the controller declared itself lost).
+    /// The pose fields are the last estimate carried on by the motion prediction (zero
+    /// without one): do not steer by them. Drive on: the search needs landmarks.
+    Relocalising,
 }
 
 /// What the motion prediction before the scan rested on.

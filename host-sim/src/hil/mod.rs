@@ -163,6 +163,7 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         &RunOptions {
             keep_scans: true,
             progress: None,
+            ..Default::default()
         },
     )
     .map_err(|e| host(&e))?;

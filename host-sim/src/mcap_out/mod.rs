@@ -229,6 +229,7 @@ mod tests {
         let options = RunOptions {
             keep_scans: true,
             progress: None,
+            ..Default::default()
         };
         let log = run(&s, &world, &mut OdometryOnly::default(), &options);
         let (map, _) = scenario_map(&s).unwrap();

@@ -544,20 +544,24 @@ fn coverage_warning(
 }
 
 /// Says so when the localiser did not confirm the map on a tenth of the scans or more: the
-/// landmarks in view did not fit it (another tunnel's map, landmarks moved or damaged).
+/// landmarks in view did not fit it (another tunnel's map, landmarks moved or damaged), and
+/// it reported the map unconfirmed or, having declared itself lost, searched it again.
 fn map_warning(steps: &[ReplayStep]) -> Option<String> {
+    use loc_core::localizer::Status;
     let unconfirmed = steps
         .iter()
         .filter(|s| {
             matches!(
                 s.status,
-                EstimatorStatus::Localizer(loc_core::localizer::Status::MapUnconfirmed { .. })
+                EstimatorStatus::Localizer(
+                    Status::MapUnconfirmed { .. } | Status::Relocalising { .. }
+                )
             )
         })
         .count();
     (unconfirmed > 0 && unconfirmed * 10 >= steps.len()).then(|| {
         format!(
-            "the map was not confirmed on {unconfirmed} of {} scans ({:.0} %): the landmarks in view did not fit it, and those poses are reported map-unconfirmed, not tracking. Is this the drive's map? (another tunnel's, or landmarks moved or damaged since the survey)",
+            "the map was not confirmed on {unconfirmed} of {} scans ({:.0} %): the landmarks in view did not fit it, and those poses are reported map-unconfirmed or relocalising, not tracking. Is this the drive's map? (another tunnel's, or landmarks moved or damaged since the survey)",
             steps.len(),
             100.0 * unconfirmed as f64 / steps.len().max(1) as f64
         )

@@ -88,6 +88,12 @@ impl PathFollower {
         }
     }
 
+    /// Moves the follower's idea of where it is by `ds_m` along the line (after the vehicle
+    /// was moved without driving: its projection looks only near the last chainage).
+    pub fn jump(&mut self, ds_m: f64) {
+        self.s_m += ds_m;
+    }
+
     /// Chainage of the drive's end, metres.
     pub fn end_m(&self) -> f64 {
         self.end_m

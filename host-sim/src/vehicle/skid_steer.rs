@@ -100,6 +100,12 @@ impl SkidSteer {
         self.pose
     }
 
+    /// Puts the vehicle at `pose` without its tracks turning (a tow, a slide on mud): the
+    /// kidnapping the odometry does not see. Speeds are kept.
+    pub fn teleport(&mut self, pose: SimPose) {
+        self.pose = pose;
+    }
+
     /// Current wheel (encoder) speeds.
     pub fn wheel_speeds(&self) -> TrackSpeeds {
         self.wheels

@@ -7,6 +7,7 @@ use super::integrity::IntegrityConfig;
 use super::largest_position_sd_m;
 use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
 use crate::matching::{MatchConfig, PrealignConfig};
+use crate::relocalise::RelocaliseConfig;
 use crate::scan::SensorSetup;
 use crate::strip::StripConfig;
 
@@ -43,6 +44,9 @@ pub struct LocalizerConfig {
     pub update: UpdateConfig,
     /// When the map explains a scan well enough to use its match.
     pub integrity: IntegrityConfig,
+    /// Global relocalisation on the landmarks' spacing, and when the localizer declares
+    /// itself lost.
+    pub relocalise: RelocaliseConfig,
 }
 
 impl LocalizerConfig {
@@ -59,6 +63,7 @@ impl LocalizerConfig {
         coast: CoastNoise::DEFAULT,
         update: UpdateConfig::DEFAULT,
         integrity: IntegrityConfig::DEFAULT,
+        relocalise: RelocaliseConfig::DEFAULT,
     };
 }
 

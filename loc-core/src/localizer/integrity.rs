@@ -213,6 +213,15 @@ impl IntegrityMonitor {
         confirm_from_m: None,
     };
 
+    /// A monitor that does not trust the map until the landmarks have fitted it over
+    /// `confirm_distance_m` (after a relocalisation's lock: its placement must be confirmed
+    /// by landmarks it was not found with).
+    pub const UNCONFIRMED: Self = Self {
+        distrusted: true,
+        started: true,
+        ..Self::NEW
+    };
+
     /// Adds a scan's [`Integrity`]; `odometer_m` is the distance driven so far (any origin),
     /// metres. Returns whether the scan's pose may be trusted: the map is trusted after it,
     /// and the scan's own landmarks do not mostly misfit.
@@ -243,8 +252,10 @@ impl IntegrityMonitor {
                 return false;
             }
         }
-        // One scan whose landmarks mostly misfit is not trusted on its own either.
-        let scan_ok = integrity.clusters < 2
+        // One scan whose landmarks mostly misfit is not trusted on its own either — even a
+        // single landmark in view: after a kidnapping it is the first sign, while the walls
+        // still fit and the running share is still high.
+        let scan_ok = integrity.clusters == 0
             || f32::from(integrity.clusters_explained)
                 >= config.min_scan_fraction * f32::from(integrity.clusters);
         if !self.distrusted {
@@ -273,6 +284,14 @@ impl IntegrityMonitor {
     /// The recent share of clusters explained, `None` before the first scan with one.
     pub fn recent_fraction(&self) -> Option<f32> {
         (self.clusters > 0.0).then(|| self.explained / self.clusters)
+    }
+
+    /// Stops trusting the map until the landmarks have fitted it over
+    /// `confirm_distance_m` again (the filter refused matches: the pose may have jumped).
+    pub fn distrust(&mut self) {
+        self.distrusted = true;
+        self.started = true;
+        self.confirm_from_m = None;
     }
 
     /// Whether the map is trusted.

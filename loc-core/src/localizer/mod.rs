@@ -12,6 +12,15 @@
 //!    then [`Integrity`]: does the map explain the scan's landmarks at the matched pose? A map
 //!    that has not lately is not trusted, and the status says so ([`Status::MapUnconfirmed`]).
 //!
+//! Without a pose — at power-up, or once it has declared itself lost (every scan rejected or
+//! the map unconfirmed over [`crate::relocalise::RelocaliseConfig::lost_after_m`]) — the
+//! localizer relocalises ([`crate::relocalise`]): it strips each scan, gathers the landmarks
+//! seen and searches the map for where their spacings fit, reporting
+//! [`Status::Relocalising`] until one placement wins; with a pose it goes on matching
+//! meanwhile (its pose may still be right), and re-initialises when the lock disagrees with
+//! it. After a lock the status stays [`Status::MapUnconfirmed`] until landmarks not used by
+//! the search have fitted over the integrity monitor's confirmation distance.
+//!
 //! Memory: a `Localizer` holds its scratch buffers (≈ 38 KiB: point labels, selected
 //! points, the match workspace); keep it in a `static` or on a large stack. No allocation,
 //! no panics, bounded time per call.
@@ -43,6 +52,7 @@ use crate::matching::{
     match_scan_with_prealign, select_match_points, MatchPoints, MatchResult, MatchWorkspace,
     PositionPrior,
 };
+use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
 
@@ -61,6 +71,17 @@ pub struct Localizer<'m, M: MapQuery> {
     integrity_monitor: IntegrityMonitor,
     /// Distance driven by the predictions so far, metres (for the integrity monitor).
     odometer_m: f32,
+    /// Searching the map for the vehicle (see the module docs).
+    relocalising: bool,
+    relocaliser: Relocaliser,
+    /// Odometer reading since which every scan was rejected or left the map unconfirmed.
+    doubtful_since_m: Option<f32>,
+    /// Whether the last scan ran the relocalisation's search (with a pose, scans alternate
+    /// between it and matching).
+    searched_last_scan: bool,
+    /// Matches the filter's gate refused since then, and in a row.
+    gate_failures: u8,
+    gate_failures_in_row: u8,
 }
 
 impl<'m, M: MapQuery> Localizer<'m, M> {
@@ -96,7 +117,56 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             last_integrity: None,
             integrity_monitor: IntegrityMonitor::NEW,
             odometer_m: 0.0,
+            relocalising: false,
+            relocaliser: Relocaliser::NEW,
+            doubtful_since_m: None,
+            searched_last_scan: false,
+            gate_failures: 0,
+            gate_failures_in_row: 0,
         }
+    }
+
+    /// Starts a global relocalisation: the vehicle's position is searched in the whole map
+    /// from the landmarks seen while driving ([`crate::relocalise`]). Without a pose (a
+    /// localizer built [`Localizer::uninitialised`]) this is how it finds one; with one, the
+    /// localizer goes on matching from it meanwhile. The status is
+    /// [`Status::Relocalising`] until a placement wins.
+    pub fn relocalise(&mut self) {
+        self.relocaliser.restart();
+        self.relocalising = true;
+        self.doubtful_since_m = None;
+        self.gate_failures = 0;
+        self.status = Status::Relocalising {
+            progress: self.relocaliser.progress(),
+        };
+    }
+
+    /// Drops the pose (power-up without one): the localizer is as
+    /// [`Localizer::uninitialised`] left it, its configuration kept. Scans are ignored
+    /// ([`Status::NotInitialised`]) until [`Localizer::initialise`] or
+    /// [`Localizer::relocalise`].
+    pub fn forget_pose(&mut self) {
+        self.ekf = None;
+        self.relocalising = false;
+        self.relocaliser.restart();
+        self.integrity_monitor = IntegrityMonitor::NEW;
+        self.last_strip = None;
+        self.last_match = None;
+        self.last_integrity = None;
+        self.doubtful_since_m = None;
+        self.gate_failures = 0;
+        self.gate_failures_in_row = 0;
+        self.status = Status::NotInitialised;
+    }
+
+    /// Whether a relocalisation is under way.
+    pub fn is_relocalising(&self) -> bool {
+        self.relocalising
+    }
+
+    /// The relocaliser (its local landmark map and progress).
+    pub fn relocaliser(&self) -> &Relocaliser {
+        &self.relocaliser
     }
 
     /// Sets (or resets) the pose and its covariance; the odometry's scale error starts at
@@ -113,6 +183,10 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         )?);
         self.status = Status::DeadReckoning;
         self.integrity_monitor = IntegrityMonitor::default();
+        self.relocalising = false;
+        self.doubtful_since_m = None;
+        self.gate_failures = 0;
+        self.gate_failures_in_row = 0;
         Ok(())
     }
 
@@ -161,6 +235,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         predict: impl FnOnce(&mut Ekf) -> Result<(), OdometryRejection>,
     ) -> Result<(), OdometryRejection> {
         let r = self.ekf.as_mut().map_or(Ok(()), predict);
+        if self.relocalising && r.is_ok() {
+            self.relocaliser.advance(increment);
+        }
         self.count_distance(r.is_ok(), increment.distance_m());
         r
     }
@@ -179,6 +256,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             Some(ekf) => ekf.coast(unobserved_s, v_mps, omega_radps, &self.config.coast),
             None => Ok(()),
         };
+        if self.relocalising && r.is_ok() {
+            self.relocaliser.advance(&OdometryIncrement {
+                dx_m: v_mps * unobserved_s,
+                dy_m: 0.0,
+                dtheta_rad: omega_radps * unobserved_s,
+            });
+        }
         self.count_distance(r.is_ok(), crate::math::abs(v_mps * unobserved_s));
         r
     }
@@ -202,19 +286,64 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         scan: &Scan,
         observer: &mut O,
     ) -> Status {
-        let Some(ekf) = self.ekf.as_mut() else {
+        if self.ekf.is_none() && !self.relocalising {
             self.status = Status::NotInitialised;
             return self.status;
-        };
-        let cfg = &self.config;
+        }
         let points = scan.points();
         let n = points.len().min(self.labels.len());
-        let labels = self.labels.get_mut(..n).unwrap_or_default();
 
         observer.begin(Stage::Strip);
-        let strip = strip_walls(points, &cfg.strip, labels);
+        let labels = self.labels.get_mut(..n).unwrap_or_default();
+        let strip = strip_walls(points, &self.config.strip, labels);
         self.last_strip = Some(strip);
         observer.end(Stage::Strip);
+
+        // The search runs in the match stage's place: on every scan without a pose, on every
+        // other one with a pose (the others match from it), so that no scan pays for both.
+        let search = self.relocalising && (self.ekf.is_none() || !self.searched_last_scan);
+        self.searched_last_scan = search;
+        if search {
+            observer.begin(Stage::Match);
+            let labels = self.labels.get(..n).unwrap_or_default();
+            let lock =
+                self.relocaliser
+                    .update(self.map, points, labels, &strip, &self.config.relocalise);
+            observer.end(Stage::Match);
+            self.last_match = None;
+            self.last_integrity = None;
+            self.status = match lock {
+                // Matched from the next scan on: the lock's scan has had its budget.
+                Some(lock) => {
+                    self.take_lock(&lock);
+                    Status::MapUnconfirmed {
+                        integrity: Integrity::default(),
+                    }
+                }
+                None => Status::Relocalising {
+                    progress: self.relocaliser.progress(),
+                },
+            };
+            return self.status;
+        }
+        let status = self.match_and_update(points, n, &strip, observer);
+        self.status = self.judge(status);
+        self.status
+    }
+
+    /// Select → pre-align → match → update on a stripped scan (the first `n` labels).
+    fn match_and_update<O: StageObserver>(
+        &mut self,
+        points: &[crate::scan::ScanPoint],
+        n: usize,
+        strip: &StripSummary,
+        observer: &mut O,
+    ) -> Status {
+        let Some(ekf) = self.ekf.as_mut() else {
+            return Status::NotInitialised;
+        };
+        let cfg = &self.config;
+        let labels = self.labels.get(..n).unwrap_or_default();
 
         observer.begin(Stage::Select);
         select_match_points(
@@ -231,7 +360,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             self.map,
             points,
             labels,
-            &strip,
+            strip,
             &self.match_points,
             ekf.pose(),
             &PositionPrior::from_covariance(&ekf.covariance()),
@@ -245,8 +374,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             Err(e) => {
                 self.last_match = None;
                 self.last_integrity = None;
-                self.status = Status::MatchRejected { reason: e.into() };
-                return self.status;
+                return Status::MatchRejected { reason: e.into() };
             }
         };
         self.last_match = Some(result);
@@ -260,7 +388,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let trusted = self
             .integrity_monitor
             .observe(&integrity, self.odometer_m, &cfg.integrity);
-        self.status = match updated {
+        let status = match updated {
             Err(e) => Status::MatchRejected { reason: e.into() },
             Ok(_) if !trusted => Status::MapUnconfirmed { integrity },
             Ok(_) if result.degeneracy.degenerate => Status::Degenerate {
@@ -270,7 +398,88 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             Ok(_) => Status::Tracking,
         };
         observer.end(Stage::Update);
-        self.status
+        status
+    }
+
+    /// Starts from a relocalisation's lock: a pose without one, or one the lock contradicts
+    /// (beyond 3σ of its position), is replaced by the lock's; either way the map must be
+    /// confirmed again before the pose is called tracked.
+    fn take_lock(&mut self, lock: &Lock) {
+        self.relocalising = false;
+        self.doubtful_since_m = None;
+        self.gate_failures = 0;
+        let agrees = self.ekf.as_ref().is_some_and(|ekf| {
+            let p = ekf.pose();
+            let c = ekf.covariance();
+            let (dx, dy) = (lock.pose.x_m - p.x_m, lock.pose.y_m - p.y_m);
+            let det = c.m11 * c.m22 - c.m12 * c.m21;
+            det > 0.0 && (c.m22 * dx * dx - 2.0 * c.m12 * dx * dy + c.m11 * dy * dy) / det <= 9.0
+        });
+        if !agrees {
+            let [sp, st] = self.config.relocalise.lock_sigma;
+            let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(sp * sp, sp * sp, st * st));
+            if let Ok(ekf) = Ekf::with_scale(lock.pose, cov, self.config.odometry.scale_sd) {
+                self.ekf = Some(ekf);
+            }
+        }
+        self.integrity_monitor = IntegrityMonitor::UNCONFIRMED;
+    }
+
+    /// The status to report for a scan's `status`: relocalising while a search is under
+    /// way; and the localizer declares itself lost (starting a search) when every scan over
+    /// `lost_after_m` was rejected or left the map unconfirmed.
+    fn judge(&mut self, status: Status) -> Status {
+        let gate_failed = matches!(
+            status,
+            Status::MatchRejected {
+                reason: RejectReason::Update(crate::filter::UpdateRejection::FailedGate { .. })
+            }
+        );
+        self.gate_failures_in_row = if gate_failed {
+            self.gate_failures_in_row.saturating_add(1)
+        } else {
+            0
+        };
+        // The innovation test: two matches in a row refused by the gate say the pose may
+        // have jumped (a kidnapping, wheels sliding): nothing is called tracking until the
+        // landmarks have confirmed the map again.
+        if self.gate_failures_in_row >= 2 {
+            self.integrity_monitor.distrust();
+        }
+        let mut status = status;
+        if matches!(status, Status::Tracking | Status::Degenerate { .. })
+            && !self.integrity_monitor.is_trusted()
+        {
+            status = Status::MapUnconfirmed {
+                integrity: self.last_integrity.unwrap_or_default(),
+            };
+        }
+        match status {
+            Status::Tracking | Status::Degenerate { .. } => {
+                self.doubtful_since_m = None;
+                self.gate_failures = 0;
+            }
+            Status::MatchRejected { .. } | Status::MapUnconfirmed { .. } => {
+                let since = *self.doubtful_since_m.get_or_insert(self.odometer_m);
+                if gate_failed {
+                    self.gate_failures = self.gate_failures.saturating_add(1);
+                }
+                let cfg = &self.config.relocalise;
+                let lost = self.odometer_m - since >= cfg.lost_after_m
+                    || self.gate_failures >= cfg.lost_after_gate_failures;
+                if cfg.enabled && !self.relocalising && lost {
+                    self.relocalise();
+                }
+            }
+            _ => {}
+        }
+        if self.relocalising {
+            Status::Relocalising {
+                progress: self.relocaliser.progress(),
+            }
+        } else {
+            status
+        }
     }
 
     /// How well the map explained the last matched scan's landmarks (`None` before the

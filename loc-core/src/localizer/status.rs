@@ -73,6 +73,14 @@ pub enum Status {
         /// Why.
         reason: RejectReason,
     },
+    /// Searching the map for where the vehicle is, from the landmarks seen while driving
+    /// ([`crate::relocalise`]): at start-up without a pose, or after the localizer declared
+    /// itself lost. The pose (if any: the last one, carried on by odometry) is not to be
+    /// relied on. Drive on: each landmark seen narrows the search.
+    Relocalising {
+        /// Where the search stands.
+        progress: crate::relocalise::RelocaliseProgress,
+    },
 }
 
 impl fmt::Display for Status {
@@ -95,6 +103,15 @@ impl fmt::Display for Status {
                 integrity.clusters_explained, integrity.clusters
             ),
             Status::MatchRejected { reason } => write!(f, "scan not used: {reason}"),
+            Status::Relocalising { progress } => write!(
+                f,
+                "relocalising: {} landmarks seen over {:.1} m, {} search rounds, best placement explains {} with a lead of {:.1} (drive on: each landmark seen narrows the search)",
+                progress.landmarks_seen,
+                progress.distance_m,
+                progress.rounds,
+                progress.best_explained,
+                progress.lead
+            ),
         }
     }
 }

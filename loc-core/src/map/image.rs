@@ -51,10 +51,11 @@ use super::error::{Capacity, GeometryError, MapError};
 use super::file::After;
 use super::grid::{Cell, CellRect, CellSpec, MAX_CELL_COORD};
 use super::search::{self, CellIndex};
+use super::stored;
 use super::wall::{frame_at, polyline_length_m};
 use super::{
-    FeatureKind, IndexStats, LandmarkPlacement, MapHit, MapQuery, MapSegment, RayHit, StoredMap,
-    WallSide,
+    FeatureKind, IndexStats, LandmarkBase, LandmarkPlacement, MapHit, MapQuery, MapSegment, RayHit,
+    StoredMap, WallSide,
 };
 
 /// First four bytes of every map image.
@@ -610,6 +611,19 @@ impl MapQuery for MapImage<'_> {
         f: &mut dyn FnMut(u16, Segment),
     ) {
         search::for_each_landmark_segment_near(self, center, radius_m, f);
+    }
+
+    fn landmark_count(&self) -> u16 {
+        u16::try_from(self.layout.landmarks).unwrap_or(u16::MAX)
+    }
+
+    fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
+        let (placement, first, count) = self.landmark_record(usize::from(id))?;
+        let end = first.checked_add(count)?;
+        stored::landmark_base(
+            placement.wall,
+            (first..end).filter_map(|i| self.segment_at(i).map(|s| s.segment)),
+        )
     }
 }
 

@@ -5,6 +5,7 @@
 //! fixed-capacity stored map on the MCU, a larger one on the host).
 
 use crate::geometry::{Point2, Segment, SegmentProjection};
+use crate::map::WallSide;
 
 /// What a piece of map geometry is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -50,6 +51,23 @@ pub struct RayHit {
     pub kind: FeatureKind,
 }
 
+/// A landmark's base on its wall: where its polyline meets the wall, world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LandmarkBase {
+    /// The wall it is mounted on.
+    pub wall: WallSide,
+    /// The base, from its end at the smaller arc position to the one at the larger (the
+    /// direction of increasing chainage), world frame, metres.
+    pub base: Segment,
+}
+
+impl LandmarkBase {
+    /// The centre of the base (the landmark's anchor on the wall), world frame.
+    pub fn anchor(&self) -> Point2 {
+        self.base.a.add(self.base.b).scale(0.5)
+    }
+}
+
 /// The queries the estimator makes against a map. All inputs and outputs are in the world
 /// frame, metres and radians. Implementations must be bounded in time (a spatial index, not
 /// a scan of the whole map) and must never panic, whatever the input (NaN included: a
@@ -70,4 +88,17 @@ pub trait MapQuery {
         radius_m: f32,
         f: &mut dyn FnMut(u16, Segment),
     );
+
+    /// Number of landmarks (ids `0..landmark_count()`); 0 for a map that does not list them
+    /// (such a map cannot relocalise a vehicle).
+    fn landmark_count(&self) -> u16 {
+        0
+    }
+
+    /// Landmark `id`'s base on its wall; `None` past the end (or for a map that does not
+    /// list its landmarks). Bounded in time: a table lookup.
+    fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
+        let _ = id;
+        None
+    }
 }

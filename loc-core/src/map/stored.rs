@@ -8,7 +8,7 @@ use super::error::{Capacity, GeometryError, MapError};
 use super::grid::{GridView, SparseGrid};
 use super::search;
 use super::wall::{frame_at, polyline_length_m, WallSide};
-use super::{FeatureKind, MapHit, MapQuery, RayHit};
+use super::{FeatureKind, LandmarkBase, MapHit, MapQuery, RayHit};
 
 /// Side length of the index cells unless the builder sets another, metres. 2 m: a 5 m
 /// tunnel cross-section spans ~3 cells, a cell holds 1–3 wall segments sampled every
@@ -475,6 +475,32 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
     ) {
         search::for_each_landmark_segment_near(&self.view(), center, radius_m, f);
     }
+
+    fn landmark_count(&self) -> u16 {
+        u16::try_from(self.landmarks.len()).unwrap_or(u16::MAX)
+    }
+
+    fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
+        let l = self.landmarks.get(usize::from(id))?;
+        let first = usize::from(l.first_segment);
+        let count = usize::from(l.segment_count);
+        let segments = self.segments.get(first..first.checked_add(count)?)?;
+        landmark_base(l.placement.wall, segments.iter().map(|s| s.segment))
+    }
+}
+
+/// The base of a landmark from its segments in polyline order (increasing `u`, so the
+/// first segment's start is at the smaller arc position): the polyline's two ends.
+pub(crate) fn landmark_base(
+    wall: WallSide,
+    mut segments: impl Iterator<Item = Segment>,
+) -> Option<LandmarkBase> {
+    let first = segments.next()?;
+    let last = segments.last().unwrap_or(first);
+    Some(LandmarkBase {
+        wall,
+        base: Segment::new(first.a, last.b),
+    })
 }
 
 /// Progress through one wall's vertices while building.

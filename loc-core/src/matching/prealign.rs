@@ -18,7 +18,9 @@
 use crate::geometry::{Point2, Pose2, Segment};
 use crate::map::MapQuery;
 use crate::math;
-use crate::strip::{PointLabel, StripSummary, VehiclePoint};
+use crate::strip::{
+    height_weight, landmark_clusters, PointLabel, StripSummary, VehiclePoint, MAX_CLUSTERS,
+};
 
 /// Tuning of the pre-alignment. Distances in metres.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -87,89 +89,8 @@ pub struct PrealignShift {
     pub clusters: u8,
 }
 
-/// Most clusters considered per scan.
-const MAX_CLUSTERS: usize = 16;
 /// Most distinct landmarks tracked around one cluster.
 const MAX_NEARBY: usize = 8;
-
-#[derive(Clone, Copy)]
-struct Cluster {
-    /// Σ w·p (vehicle frame) and Σ w with `w = h⁴`.
-    weighted_sum: Point2,
-    weight: f32,
-    /// Plain sum, for landmarks too flat to weight.
-    sum: Point2,
-    count: u16,
-    last: Point2,
-}
-
-impl Cluster {
-    fn start(p: Point2, w: f32) -> Self {
-        Self {
-            weighted_sum: p.scale(w),
-            weight: w,
-            sum: p,
-            count: 1,
-            last: p,
-        }
-    }
-
-    fn add(self, p: Point2, w: f32) -> Self {
-        Self {
-            weighted_sum: self.weighted_sum.add(p.scale(w)),
-            weight: self.weight + w,
-            sum: self.sum.add(p),
-            count: self.count.saturating_add(1),
-            last: p,
-        }
-    }
-
-    fn centroid(&self) -> Point2 {
-        if self.weight > 1e-12 {
-            self.weighted_sum.scale(1.0 / self.weight)
-        } else {
-            self.sum.scale(1.0 / f32::from(self.count.max(1)))
-        }
-    }
-}
-
-/// The centroid weight `h⁴` of a landmark point `p` (vehicle frame) standing `h` into the
-/// tunnel off the nearer fitted wall (0 behind it or without walls). The same as
-/// `height_weight(strip.inward_distance_m(p))` without its square roots: with the normal
-/// distance `h = v / √(1 + f′²)` (`v` the inward vertical residual), `h⁴ = v⁴ / (1 + f′²)²`
-/// and the nearer wall is the one with the smaller `v² / (1 + f′²)`.
-#[inline]
-fn point_weight(strip: &StripSummary, p: Point2) -> f32 {
-    let inward = |w: &crate::strip::WallFit, sign: f32| {
-        let (r, slope) = w.cubic.residual_and_slope(p);
-        let v = sign * r;
-        (v, v * v / (1.0 + slope * slope))
-    };
-    let l = strip.left.as_ref().map(|w| inward(w, -1.0));
-    let r = strip.right.as_ref().map(|w| inward(w, 1.0));
-    let nearer = match (l, r) {
-        (Some(a), Some(b)) => Some(if a.1 <= b.1 { a } else { b }),
-        (a, b) => a.or(b),
-    };
-    match nearer {
-        Some((v, h_sq)) if v > 0.0 && h_sq.is_finite() => h_sq * h_sq,
-        _ => 0.0,
-    }
-}
-
-/// The centroid weight of a point `height_m` above its wall: `h⁴`.
-#[inline]
-fn height_weight(height_m: f32) -> f32 {
-    let h = if height_m.is_finite() {
-        math::max(height_m, 0.0)
-    } else {
-        0.0
-    };
-    let h2 = h * h;
-    h2 * h2
-}
-
-/// Shifts `predicted` along the tunnel so observed landmark clusters (from `labels`, in beam
 /// order) meet their nearest map landmarks; `None` when nothing reliable was found.
 pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
     map: &M,
@@ -182,37 +103,13 @@ pub fn prealign_along_tunnel<M: MapQuery, P: VehiclePoint>(
     if !config.enabled || !predicted.is_finite() {
         return None;
     }
-    let mut clusters: heapless::Vec<Cluster, MAX_CLUSTERS> = heapless::Vec::new();
-    let mut current: Option<Cluster> = None;
-    for (p, l) in points
-        .iter()
-        .map(VehiclePoint::vehicle_point)
-        .zip(labels.iter())
-    {
-        if *l != PointLabel::Landmark || !p.is_finite() {
-            continue;
-        }
-        let w = point_weight(strip, p);
-        let gap_sq = config.max_cluster_gap_m * config.max_cluster_gap_m;
-        current = match current {
-            Some(c) if config.max_cluster_gap_m >= 0.0 && c.last.dist_sq(p) <= gap_sq => {
-                Some(c.add(p, w))
-            }
-            other => {
-                if let Some(c) = other {
-                    if c.count >= config.min_cluster_points {
-                        let _ = clusters.push(c);
-                    }
-                }
-                Some(Cluster::start(p, w))
-            }
-        };
-    }
-    if let Some(c) = current {
-        if c.count >= config.min_cluster_points {
-            let _ = clusters.push(c);
-        }
-    }
+    let clusters = landmark_clusters(
+        points,
+        labels,
+        strip,
+        config.max_cluster_gap_m,
+        config.min_cluster_points,
+    );
 
     // Per cluster: along-tunnel offset to the nearest map landmark, weighted by points.
     let mut offsets: heapless::Vec<(f32, Point2, f32), MAX_CLUSTERS> = heapless::Vec::new();
@@ -366,17 +263,6 @@ mod tests {
     extern crate std;
 
     use super::*;
-    use crate::strip::{Cubic, LabelCounts, WallFit, XScaling};
-
-    fn wall(f: impl Fn(f32) -> f32) -> WallFit {
-        let s = XScaling::spanning(-5.0, 40.0);
-        let pts = [-5.0f32, 10.0, 25.0, 40.0].map(|x| Point2::new(x, f(x)));
-        WallFit {
-            cubic: Cubic::through(pts, s).unwrap(),
-            inliers: 100,
-            rms_m: 0.01,
-        }
-    }
 
     #[test]
     fn map_centroids_sit_on_the_landmark_axis_whatever_its_proportions() {
@@ -417,29 +303,5 @@ mod tests {
                 );
             }
         }
-    }
-
-    #[test]
-    fn point_weight_is_the_fourth_power_of_the_inward_distance() {
-        let strip = StripSummary {
-            left: Some(wall(|x| 2.5 + 0.02 * x)),
-            right: Some(wall(|x| -2.5 - 0.001 * x * x)),
-            counts: LabelCounts::default(),
-        };
-        for i in 0..200 {
-            let p = Point2::new(-4.0 + 0.22 * i as f32, -3.0 + 0.031 * i as f32);
-            let want = height_weight(strip.inward_distance_m(p).unwrap_or(0.0));
-            let got = point_weight(&strip, p);
-            assert!(
-                (got - want).abs() <= 1e-4 * want.max(1e-6),
-                "{p:?}: {got} vs {want}"
-            );
-        }
-        let none = StripSummary {
-            left: None,
-            right: None,
-            counts: LabelCounts::default(),
-        };
-        assert_eq!(point_weight(&none, Point2::new(1.0, 1.0)), 0.0);
     }
 }

@@ -31,9 +31,11 @@
 //! Cost: `O(points)`: 2 × `ransac_iterations` × `score_sample_points` polynomial evaluations,
 //! plus four refit passes and one labelling pass over the points.
 
+mod clusters;
 mod cubic;
 mod ransac;
 
+pub use clusters::{height_weight, landmark_clusters, LandmarkCluster, MAX_CLUSTERS};
 pub use cubic::{Cubic, LeastSquares, XScaling};
 pub use ransac::WallFit;
 

@@ -10,12 +10,13 @@
 //! - Exit: semihosting `SYS_EXIT` when a debugger is attached, otherwise a system reset.
 //!
 //! Clocks: 168 MHz from the 8 MHz HSE crystal of the DISCOVERY board through the PLL.
-//! Memory (`memory/stm32f407.x`): code in the first 384 KiB of flash, the map flash region in
-//! the last 640 KiB (`0x0806_0000`), SRAM1 + SRAM2 (128 KiB) as RAM.
+//! Memory (`memory/stm32f407.x`): code in the first 512 KiB of flash, the map flash region in
+//! the last 512 KiB (`0x0808_0000`: a 1 km map image is 83 KiB), SRAM1 + SRAM2 (128 KiB) as
+//! RAM.
 //!
 //! Build and flash: `cd firmware && cargo build --release --no-default-features --features
 //! board-stm32f407`, then `probe-rs download --chip STM32F407VGTx --binary-format bin
-//! --base-address 0x08060000 MAP.image` and `probe-rs run --chip STM32F407VGTx
+//! --base-address 0x08080000 MAP.image` and `probe-rs run --chip STM32F407VGTx
 //! target/thumbv7em-none-eabihf/release/controller`.
 
 use stm32f4xx_hal::rcc::Config;
@@ -38,11 +39,11 @@ pub const HSE_HZ: u32 = 8_000_000;
 /// Line rate of both USARTs, baud.
 pub const BAUD: u32 = 115_200;
 
-/// Start of the map flash region: flash sectors 7–11 (`memory/stm32f407.x` gives the
-/// program sectors 0–6).
-pub const MAP_REGION_ADDR: usize = 0x0806_0000;
-/// Length of the map flash region, bytes (640 KiB).
-pub const MAP_REGION_LEN: usize = 0x000A_0000;
+/// Start of the map flash region: flash sectors 8–11 (`memory/stm32f407.x` gives the
+/// program sectors 0–7).
+pub const MAP_REGION_ADDR: usize = 0x0808_0000;
+/// Length of the map flash region, bytes (512 KiB).
+pub const MAP_REGION_LEN: usize = 0x0008_0000;
 
 /// USART2: the lidar.
 pub type LidarUsart = Usart<Serial<pac::USART2>>;
