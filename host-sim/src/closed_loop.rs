@@ -236,6 +236,19 @@ pub struct RunOptions<'a> {
     pub progress: Option<&'a dyn Fn(f64)>,
     /// Kidnappings: the vehicle moved along the tunnel where its odometry does not see it.
     pub teleports: &'a [Teleport],
+    /// Stretches without scans (the lidar blanked: a cable, a power dip): no scan reaches
+    /// the estimator from `from_m` driven for `seconds`.
+    pub blind: &'a [Blind],
+}
+
+/// The lidar blanked: no scan reaches the estimator for `seconds` once the vehicle has
+/// driven `from_m` (the odometry goes on).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blind {
+    /// Distance driven when it starts, metres.
+    pub from_m: f64,
+    /// How long, seconds.
+    pub seconds: f64,
 }
 
 /// A kidnapping: once the vehicle has driven `at_distance_m`, it is moved `jump_m` along
@@ -305,6 +318,8 @@ pub fn run(
     let mut finished_at: Option<u64> = None;
     let mut last_progress = -1.0f64;
     let mut teleports_done = 0usize;
+    // Start time of each blind stretch once the vehicle reached it.
+    let mut blind_since: Vec<Option<f64>> = vec![None; options.blind.len()];
 
     for step in 1..=max_steps {
         let before = vehicle.pose();
@@ -351,8 +366,21 @@ pub fn run(
             wheel_n = 0;
         }
 
+        for (b, since) in options.blind.iter().zip(blind_since.iter_mut()) {
+            if since.is_none() && distance >= b.from_m {
+                *since = Some(t);
+            }
+        }
+        let blind = options
+            .blind
+            .iter()
+            .zip(&blind_since)
+            .any(|(b, since)| since.is_some_and(|s| t < s + b.seconds));
         if t + 1e-9 >= next_scan_index as f64 * scan_period_s {
             next_scan_index += 1;
+            if blind {
+                continue;
+            }
             // CPU time of this thread: other processes on the machine do not count.
             let r0 = ThreadTime::now();
             let scan = lidar.scan(world.grid(), (after.x_m, after.y_m, after.theta_rad), t);

@@ -196,6 +196,14 @@ struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Kidnap the vehicle: after AT_M driven, move it JUMP_M along the tunnel (negative:
+    /// back) without odometry of the move (a tow, wheels sliding on mud). Repeatable.
+    #[arg(long, value_name = "AT_M,JUMP_M", allow_hyphen_values = true)]
+    kidnap: Vec<String>,
+    /// Blank the lidar: no scan reaches the localiser for SECONDS from FROM_M driven (the
+    /// odometry goes on). Repeatable.
+    #[arg(long, value_name = "FROM_M,SECONDS")]
+    blind: Vec<String>,
 }
 
 #[derive(Args)]
@@ -653,7 +661,52 @@ fn run_with_progress(
     show: bool,
     keep_scans: bool,
 ) -> Result<RunLog, String> {
-    run_with_progress_on(s, est, None, label, show, keep_scans)
+    run_with_progress_on(s, est, None, label, show, keep_scans, &Faults::default())
+}
+
+/// Faults injected into a run (`run --kidnap`, `--blind`).
+#[derive(Default)]
+struct Faults {
+    teleports: Vec<host_sim::closed_loop::Teleport>,
+    blind: Vec<host_sim::closed_loop::Blind>,
+}
+
+impl Faults {
+    fn parse(kidnap: &[String], blind: &[String]) -> Result<Self, String> {
+        let pair = |flag: &str, what: &str, text: &str| -> Result<(f64, f64), String> {
+            let bad = || format!("{flag} {text}: expected {what} (e.g. 100,25)");
+            let (a, b) = text.split_once(',').ok_or_else(bad)?;
+            let a: f64 = a.trim().parse().map_err(|_| bad())?;
+            let b: f64 = b.trim().parse().map_err(|_| bad())?;
+            if !(a.is_finite() && b.is_finite() && a >= 0.0) {
+                return Err(bad());
+            }
+            Ok((a, b))
+        };
+        let mut teleports = kidnap
+            .iter()
+            .map(|k| {
+                pair("--kidnap", "AT_M,JUMP_M", k).map(|(at_distance_m, jump_m)| {
+                    host_sim::closed_loop::Teleport {
+                        at_distance_m,
+                        jump_m,
+                    }
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        teleports.sort_by(|a, b| a.at_distance_m.total_cmp(&b.at_distance_m));
+        let blind = blind
+            .iter()
+            .map(|b| {
+                let (from_m, seconds) = pair("--blind", "FROM_M,SECONDS", b)?;
+                if seconds <= 0.0 {
+                    return Err(format!("--blind {b}: SECONDS must be positive"));
+                }
+                Ok(host_sim::closed_loop::Blind { from_m, seconds })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self { teleports, blind })
+    }
 }
 
 /// [`run_with_progress`], against `map` instead of the design's when given.
@@ -664,6 +717,7 @@ fn run_with_progress_on(
     label: &str,
     show: bool,
     keep_scans: bool,
+    faults: &Faults,
 ) -> Result<RunLog, String> {
     let bar = progress_bar(label, show);
     let started = std::time::Instant::now();
@@ -680,7 +734,8 @@ fn run_with_progress_on(
     let options = RunOptions {
         keep_scans,
         progress: Some(&cb),
-        ..Default::default()
+        teleports: &faults.teleports,
+        blind: &faults.blind,
     };
     let log = match map {
         Some(map) => host_sim::session::run_scenario_with_map(s, map, &options),
@@ -712,7 +767,8 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         }
         None => None,
     };
-    let log = run_with_progress_on(&s, est, map.as_deref(), &s.name, !a.quiet, keep)?;
+    let faults = Faults::parse(&a.kidnap, &a.blind)?;
+    let log = run_with_progress_on(&s, est, map.as_deref(), &s.name, !a.quiet, keep, &faults)?;
     let m = log.metrics();
     if a.json {
         out(&MetricsJson::new(&log, &m).to_json())?;

@@ -51,3 +51,52 @@ fn kidnappings_are_noticed_and_recovered_without_a_wrong_lock() {
     assert_eq!(r.tracked(), 4, "{}", r.report());
     assert!(r.runs.iter().all(|run| run.jump_m.abs() >= 5.0));
 }
+
+#[test]
+fn a_blind_lidar_is_bridged_on_odometry_and_a_kidnapping_in_a_run_is_recovered() {
+    use host_sim::closed_loop::{Blind, RunOptions, Teleport};
+    use host_sim::session::{run_scenario, EstimatorChoice};
+    let mut s = tunnel();
+    s.drive.end_m = s.drive.start_m + 120.0;
+    let blind = [Blind {
+        from_m: 20.0,
+        seconds: 3.0,
+    }];
+    let teleports = [Teleport {
+        at_distance_m: 60.0,
+        jump_m: -20.0,
+    }];
+    let options = RunOptions {
+        blind: &blind,
+        teleports: &teleports,
+        ..RunOptions::default()
+    };
+    let log = run_scenario(&s, EstimatorChoice::Localizer, &options).expect("runs");
+    // No scan during the blind stretch (3 s at 25 Hz), and none tracking off the truth.
+    let gap = log
+        .samples
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .fold(0.0f64, f64::max);
+    assert!(
+        (2.9..3.2).contains(&gap),
+        "longest gap between scans {gap:.2} s"
+    );
+    let mut relocalised = false;
+    let mut tracking_after_kidnap = false;
+    for (sample, status) in log.samples.iter().zip(&log.statuses) {
+        let e =
+            (sample.estimate.x_m - sample.truth.x_m).hypot(sample.estimate.y_m - sample.truth.y_m);
+        if status.is_tracking() {
+            assert!(
+                e < 0.5,
+                "tracking {e:.2} m off at {:.1} m",
+                sample.distance_m
+            );
+            tracking_after_kidnap |= relocalised;
+        }
+        relocalised |= sample.distance_m > 60.0 && status.is_relocalising();
+    }
+    assert!(relocalised, "the kidnapping was not noticed");
+    assert!(tracking_after_kidnap, "no tracking after the kidnapping");
+}
