@@ -157,6 +157,11 @@ struct ScenarioArgs {
     /// tunnel only; repeatable): what a survey refresh must detect.
     #[arg(long, value_name = "INDEX,ALONG_M")]
     move_landmark: Vec<String>,
+    /// Fraction of the landmarks moved at random after the map was made, each 0.1-0.3 m
+    /// along its wall either way (true tunnel only; `landmarks.moved_range_m` sets the
+    /// range).
+    #[arg(long)]
+    moved_fraction: Option<f64>,
     /// No landmarks in the true tunnel between these chainages, `FROM_M,TO_M` (the design
     /// keeps them).
     #[arg(long, value_name = "FROM_M,TO_M")]
@@ -561,6 +566,7 @@ impl ScenarioArgs {
             damage_fraction: None,
             install_sd: None,
             move_landmark: Vec::new(),
+            moved_fraction: None,
             missing_stretch: None,
             length: None,
             speed: None,
@@ -592,6 +598,7 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
         missing_fraction: a.missing_fraction,
         damage_fraction: a.damage_fraction,
         install_sd_m: a.install_sd,
+        moved_fraction: a.moved_fraction,
         moved: a
             .move_landmark
             .iter()

@@ -139,6 +139,13 @@ pub struct LandmarkConfig {
     /// the true tunnel only, on top of the installation error.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub moved: Vec<MovedLandmark>,
+    /// Fraction of the landmarks moved at random after the map was made (true tunnel
+    /// only), each by `moved_range_m` along its wall, either way (0: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub moved_fraction: f64,
+    /// How far those move, `[min_m, max_m]`, metres.
+    #[serde(default = "default_moved_range")]
+    pub moved_range_m: [f64; 2],
     /// Every landmark with its centre in this chainage stretch `[from_m, to_m]` is missing
     /// from the true tunnel (never installed, or torn off by a blast): a stretch without
     /// landmarks that the design still has.
@@ -153,6 +160,10 @@ pub struct MovedLandmark {
     pub index: usize,
     /// How far it moved along the wall, metres (+: increasing chainage).
     pub along_m: f64,
+}
+
+fn default_moved_range() -> [f64; 2] {
+    [0.1, 0.3]
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -195,6 +206,8 @@ impl Default for LandmarkConfig {
             install_sd_m: 0.0,
             install_standoff_sd_m: 0.0,
             moved: Vec::new(),
+            moved_fraction: 0.0,
+            moved_range_m: default_moved_range(),
             missing_stretch_m: None,
         }
     }
@@ -608,6 +621,19 @@ impl Scenario {
             "each along_m must lie in [-5, 5] m",
         )?;
         check(
+            (0.0..=1.0).contains(&l.moved_fraction),
+            "landmarks.moved_fraction",
+            "must lie in [0, 1]",
+        )?;
+        check(
+            l.moved_range_m
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=5.0).contains(v))
+                && l.moved_range_m[0] <= l.moved_range_m[1],
+            "landmarks.moved_range_m",
+            "must be [min_m, max_m] within [0, 5] m with min_m <= max_m",
+        )?;
+        check(
             l.bend_deg.is_finite() && l.bend_deg.abs() <= 90.0,
             "landmarks.bend_deg",
             "must lie in [-90, 90]",
@@ -888,6 +914,18 @@ impl Scenario {
         if let Some([from, to]) = l.missing_stretch_m {
             world.remove_landmarks_between(from, to);
         }
+        if l.moved_fraction > 0.0 {
+            // A stream of its own: the other draws stay as they were.
+            let mut rng = Pcg32::new(self.seed, 0x30fe);
+            let [lo, hi] = l.moved_range_m;
+            for i in 0..world.placements().len() {
+                if f64::from(rng.uniform01()) < l.moved_fraction {
+                    let d = lo + f64::from(rng.uniform01()) * (hi - lo);
+                    let sign = if rng.uniform01() < 0.5 { -1.0 } else { 1.0 };
+                    world.move_landmark(i, sign * d);
+                }
+            }
+        }
         for m in &l.moved {
             let count = world.placements().len();
             if !world.move_landmark(m.index, m.along_m) {
@@ -920,6 +958,38 @@ missing_every = 5
 [drive]
 cruise_speed_mps = 2.0
 "#;
+
+    #[test]
+    fn a_moved_fraction_moves_that_share_of_the_true_landmarks_by_the_range() {
+        let mut s = crate::scenario::named::named("tunnel-1km").unwrap();
+        s.landmarks.model = "p1".into();
+        let before = s.build_world().unwrap();
+        s.landmarks.moved_fraction = 0.2;
+        let after = s.build_world().unwrap();
+        let n = before.placements().len();
+        let mut moved = 0;
+        for i in 0..n {
+            // The design stays; the built landmark moves along its wall by 0.1-0.3 m.
+            assert_eq!(
+                before.landmark_polyline(i, false),
+                after.landmark_polyline(i, false)
+            );
+            let (a, b) = (
+                before.landmark_polyline(i, true)[0],
+                after.landmark_polyline(i, true)[0],
+            );
+            let d = (a.0 - b.0).hypot(a.1 - b.1);
+            if d > 1e-6 {
+                assert!((0.09..=0.31).contains(&d), "landmark {i} moved {d} m");
+                moved += 1;
+            }
+        }
+        let share = moved as f64 / n as f64;
+        assert!((0.12..=0.28).contains(&share), "{moved} of {n}");
+        // Refused out of range.
+        s.landmarks.moved_fraction = 1.5;
+        assert!(s.validate().is_err());
+    }
 
     #[test]
     fn parses_defaults_and_builds_a_world() {

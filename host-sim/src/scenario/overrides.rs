@@ -26,6 +26,8 @@ pub struct Overrides {
     pub install_sd_m: Option<f64>,
     /// Landmarks moved after the map was made (added to the scenario's).
     pub moved: Vec<super::MovedLandmark>,
+    /// Fraction of landmarks moved at random after the map was made.
+    pub moved_fraction: Option<f64>,
     /// A chainage stretch `[from_m, to_m]` without landmarks in the true tunnel.
     pub missing_stretch_m: Option<[f64; 2]>,
     /// Length of the drive from its start, metres.
@@ -70,6 +72,9 @@ impl Overrides {
             s.landmarks.install_sd_m = sd;
         }
         s.landmarks.moved.extend_from_slice(&self.moved);
+        if let Some(f) = self.moved_fraction {
+            s.landmarks.moved_fraction = f;
+        }
         if let Some(st) = self.missing_stretch_m {
             s.landmarks.missing_stretch_m = Some(st);
         }
