@@ -318,6 +318,7 @@ pub fn run(
     let mut finished_at: Option<u64> = None;
     let mut last_progress = -1.0f64;
     let mut teleports_done = 0usize;
+    let mut yaw_sum = 0.0f64;
     // Start time of each blind stretch once the vehicle reached it.
     let mut blind_since: Vec<Option<f64>> = vec![None; options.blind.len()];
 
@@ -337,6 +338,10 @@ pub fn run(
         vehicle.step(tracks, VEHICLE_DT_S);
         let mut after = vehicle.pose();
         distance += (after.x_m - before.x_m).hypot(after.y_m - before.y_m);
+        // What a gyro senses: the vehicle's own turning (not a kidnapping's).
+        yaw_sum += (after.theta_rad - before.theta_rad + std::f64::consts::PI)
+            .rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
         if let Some(k) = options.teleports.get(teleports_done) {
             if distance >= k.at_distance_m {
                 teleports_done += 1;
@@ -357,7 +362,9 @@ pub fn run(
                 left_mps: wheel_sum.left_mps / f64::from(wheel_n),
                 right_mps: wheel_sum.right_mps / f64::from(wheel_n),
             };
-            let reading = odometry.read(mean, t, f64::from(wheel_n) * VEHICLE_DT_S);
+            let dt = f64::from(wheel_n) * VEHICLE_DT_S;
+            let reading = odometry.read(mean, yaw_sum / dt, t, dt);
+            yaw_sum = 0.0;
             estimator.odometry(&reading);
             if options.keep_scans {
                 odo_log.push(reading);

@@ -162,6 +162,11 @@ struct ScenarioArgs {
     /// range).
     #[arg(long)]
     moved_fraction: Option<f64>,
+    /// Give the vehicle a yaw-rate gyro fused with the track encoders (STIM300-like: 4°/h
+    /// bias, 0.15°/√h random walk; scenario key `odometry.gyro`): heading from the gyro,
+    /// distance from the tracks.
+    #[arg(long)]
+    gyro: bool,
     /// No landmarks in the true tunnel between these chainages, `FROM_M,TO_M` (the design
     /// keeps them).
     #[arg(long, value_name = "FROM_M,TO_M")]
@@ -567,6 +572,7 @@ impl ScenarioArgs {
             install_sd: None,
             move_landmark: Vec::new(),
             moved_fraction: None,
+            gyro: false,
             missing_stretch: None,
             length: None,
             speed: None,
@@ -599,6 +605,7 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
         damage_fraction: a.damage_fraction,
         install_sd_m: a.install_sd,
         moved_fraction: a.moved_fraction,
+        gyro: a.gyro,
         moved: a
             .move_landmark
             .iter()

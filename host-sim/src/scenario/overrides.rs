@@ -28,6 +28,8 @@ pub struct Overrides {
     pub moved: Vec<super::MovedLandmark>,
     /// Fraction of landmarks moved at random after the map was made.
     pub moved_fraction: Option<f64>,
+    /// Give the vehicle a yaw-rate gyro (the default tactical-grade one).
+    pub gyro: bool,
     /// A chainage stretch `[from_m, to_m]` without landmarks in the true tunnel.
     pub missing_stretch_m: Option<[f64; 2]>,
     /// Length of the drive from its start, metres.
@@ -74,6 +76,9 @@ impl Overrides {
         s.landmarks.moved.extend_from_slice(&self.moved);
         if let Some(f) = self.moved_fraction {
             s.landmarks.moved_fraction = f;
+        }
+        if self.gyro && s.odometry.gyro.is_none() {
+            s.odometry.gyro = Some(crate::vehicle::odometry::GyroSpec::default());
         }
         if let Some(st) = self.missing_stretch_m {
             s.landmarks.missing_stretch_m = Some(st);
