@@ -276,8 +276,12 @@ impl Relocaliser {
         strip: &StripSummary,
         config: &RelocaliseConfig,
     ) -> Option<Lock> {
-        if self.seen.observe(points, labels, strip, config) > 0 {
-            // New evidence: every landmark may serve as the reference again.
+        // A round refers to the seen landmarks by index: nothing is forgotten during one.
+        let (added, pruned) =
+            self.seen
+                .observe(points, labels, strip, config, self.round.is_none());
+        if added > 0 || pruned {
+            // New evidence (or indices moved): every landmark may be the reference again.
             self.tried = 0;
         }
         if self.seen.overflowed() && self.round.is_none() {

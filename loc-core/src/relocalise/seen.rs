@@ -123,14 +123,18 @@ impl SeenLandmarks {
 
     /// Adds one stripped scan (vehicle-frame points in beam order with their labels):
     /// re-anchors the vehicle on the landmarks seen before, then merges or adds each of the
-    /// scan's landmarks. Returns how many new landmarks were added.
+    /// scan's landmarks (appended: the indices of those seen before stay). With `prune`, it
+    /// first forgets the clusters seen too few times that have not been seen again (which
+    /// moves the indices). Returns how many landmarks were added and whether any was
+    /// forgotten.
     pub fn observe<P: VehiclePoint>(
         &mut self,
         points: &[P],
         labels: &[PointLabel],
         strip: &StripSummary,
         config: &RelocaliseConfig,
-    ) -> usize {
+        prune: bool,
+    ) -> (usize, bool) {
         let clusters = landmark_clusters(
             points,
             labels,
@@ -167,9 +171,13 @@ impl SeenLandmarks {
         // moved with the vehicle or was a glint: not a landmark, and it must not fill the
         // list.
         let odometer_m = self.odometer_m;
-        self.list.retain(|s| {
-            s.sightings >= config.min_sightings || odometer_m - s.last_seen_m <= STALE_AFTER_M
-        });
+        let before = self.list.len();
+        if prune {
+            self.list.retain(|s| {
+                s.sightings >= config.min_sightings || odometer_m - s.last_seen_m <= STALE_AFTER_M
+            });
+        }
+        let pruned = self.list.len() != before;
         let mut added = 0;
         for f in &feet {
             let p = self.vehicle_local.transform_point(f.foot);
@@ -206,7 +214,7 @@ impl SeenLandmarks {
                 }
             }
         }
-        added
+        (added, pruned)
     }
 
     /// The seen landmark on side `left` nearest to `p` (local frame) within `within_m`.
@@ -371,7 +379,7 @@ mod tests {
             );
             let n = scan.points().len();
             let strip = strip_walls(scan.points(), &StripConfig::default(), &mut labels[..n]);
-            seen.observe(scan.points(), &labels[..n], &strip, &config);
+            seen.observe(scan.points(), &labels[..n], &strip, &config, true);
         }
         map
     }
