@@ -13,12 +13,12 @@
 //!    that has not lately is not trusted, and the status says so ([`Status::MapUnconfirmed`]).
 //!
 //! Without a pose — at power-up, or once it has declared itself lost (every scan rejected or
-//! the map unconfirmed over [`crate::relocalise::RelocaliseConfig::lost_after_m`]) — the
-//! localizer relocalises ([`crate::relocalise`]): it strips each scan, gathers the landmarks
-//! seen and searches the map for where their spacings fit, reporting
-//! [`Status::Relocalising`] until one placement wins; with a pose it goes on matching
-//! meanwhile (its pose may still be right), and re-initialises when the lock disagrees with
-//! it. After a lock the status stays [`Status::MapUnconfirmed`] until landmarks not used by
+//! the map unconfirmed over [`crate::relocalise::RelocaliseConfig::lost_after_m`], or
+//! matches refused by the filter's gate: the innovation test) — the localizer relocalises
+//! ([`crate::relocalise`]): it strips each scan, gathers the landmarks seen and searches the
+//! map for where their spacings fit, reporting [`Status::Relocalising`] until one placement
+//! wins; with a pose it goes on matching on every other scan (its pose may still be right),
+//! and re-initialises when the lock disagrees with it. After a lock the status stays [`Status::MapUnconfirmed`] until landmarks not used by
 //! the search have fitted over the integrity monitor's confirmation distance.
 //!
 //! Memory: a `Localizer` holds its scratch buffers (≈ 38 KiB: point labels, selected
