@@ -292,12 +292,7 @@ impl Relocaliser {
             self.progress.distance_m = distance_m;
             return None;
         }
-        let established = self
-            .seen
-            .landmarks()
-            .iter()
-            .filter(|s| s.sightings >= config.min_sightings)
-            .count();
+        let established = self.seen.established(config.min_sightings);
         self.progress.landmarks_seen = u8::try_from(established).unwrap_or(u8::MAX);
         if self.round.is_none() {
             self.round = self.next_round(config);
@@ -317,10 +312,7 @@ impl Relocaliser {
     /// enough landmarks are seen.
     fn next_round(&mut self, config: &RelocaliseConfig) -> Option<Round> {
         let seen = self.seen.landmarks();
-        let established = seen
-            .iter()
-            .filter(|s| s.sightings >= config.min_sightings)
-            .count();
+        let established = self.seen.established(config.min_sightings);
         if established < usize::from(config.min_explained) {
             return None;
         }

@@ -131,11 +131,11 @@ fn score<M: MapQuery>(
     bound: f32,
     config: &RelocaliseConfig,
 ) -> (Option<Candidate>, u32) {
-    let Some(local_to_world) = placement(reference, base) else {
-        return (None, 0);
-    };
     // Facing down the chainage, the vehicle's left wall is the map's right one.
     let reversed = (base.wall == WallSide::Left) != reference.left;
+    let Some(local_to_world) = placement(reference, base, reversed) else {
+        return (None, 0);
+    };
     let mut cost = 0.0f32;
     let mut explained = 1u8;
     let mut work = 0u32;
@@ -259,13 +259,13 @@ fn distance_to_segment(p: Point2, a: Point2, b: Point2) -> f32 {
 }
 
 /// The world ← local transform that puts `reference`'s foot on `base`'s anchor with its
-/// wall along the map's wall (`None` for a degenerate base).
-fn placement(reference: &SeenLandmark, base: &LandmarkBase) -> Option<Pose2> {
+/// wall along the map's wall, the vehicle facing down the chainage when `reversed`
+/// (`None` for a degenerate base).
+fn placement(reference: &SeenLandmark, base: &LandmarkBase, reversed: bool) -> Option<Pose2> {
     let along = base.base.b.sub(base.base.a);
     if along.norm_sq() < 1e-8 {
         return None;
     }
-    let reversed = (base.wall == WallSide::Left) != reference.left;
     let mut heading = math::atan2(along.y_m, along.x_m)
         - math::atan2(reference.tangent_local.y_m, reference.tangent_local.x_m);
     if reversed {

@@ -101,6 +101,15 @@ impl SeenLandmarks {
         &self.list
     }
 
+    /// How many landmarks were seen in `min_sightings` scans or more (the ones the search
+    /// uses).
+    pub fn established(&self, min_sightings: u16) -> usize {
+        self.list
+            .iter()
+            .filter(|s| s.sightings >= min_sightings)
+            .count()
+    }
+
     /// The vehicle's pose in the local frame.
     pub fn vehicle_local(&self) -> Pose2 {
         self.vehicle_local
