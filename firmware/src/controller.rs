@@ -35,7 +35,8 @@ use loc_core::filter::FilterInitError;
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::localizer::{
-    ConfigRecordError, Localizer, LocalizerConfig, StageObserver, StartPose, StartPoseError, Status,
+    Availability, ConfigRecordError, Localizer, LocalizerConfig, Protection, StageObserver,
+    StartPose, StartPoseError, Status,
 };
 use loc_core::map::{MapError, MapImage};
 use loc_core::scan::Scan;
@@ -47,7 +48,7 @@ use crate::board::{Board, ExitStatus};
 use crate::flash_map::{FlashMap, MAP};
 use crate::odometry::{OdometryInput, ODOMETRY_STALE_MS};
 use crate::stage_costs::{ScanStage, StageTimer};
-use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
+use controller_wire::{MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
@@ -226,6 +227,7 @@ impl<'m> Controller<'m> {
         }
         self.last_pose = Some(pose);
         let c = self.localizer.covariance().unwrap_or([[0.0; 3]; 3]);
+        let protection = self.localizer.protection();
         PoseFrame {
             sequence,
             x_m: pose.x_m,
@@ -233,6 +235,8 @@ impl<'m> Controller<'m> {
             theta_rad: pose.theta_rad,
             covariance_upper: [c[0][0], c[0][1], c[0][2], c[1][1], c[1][2], c[2][2]],
             status: pose_status(&status),
+            protection_m: protection.level_m.unwrap_or(f32::INFINITY),
+            availability: pose_availability(&protection),
             motion: self.motion_source,
             // The run loop marks poses after a reset and times the scan.
             after_reset: false,
@@ -284,6 +288,17 @@ pub fn pose_status(status: &Status) -> PoseStatus {
         Status::Relocalising { .. } => PoseStatus::Relocalising,
         // Any other status (a newer loc-core's): the scan did not update the pose.
         _ => PoseStatus::OdometryOnly,
+    }
+}
+
+/// The wire availability of a localiser's protection level.
+pub fn pose_availability(protection: &Protection) -> PoseAvailability {
+    match protection.availability {
+        Availability::Available => PoseAvailability::Available,
+        Availability::AboveAlertLimit => PoseAvailability::AboveAlertLimit,
+        Availability::FaultDetected => PoseAvailability::FaultDetected,
+        // Any other reason (a newer loc-core's) leaves no pose to act on.
+        _ => PoseAvailability::NoPose,
     }
 }
 
@@ -507,6 +522,7 @@ fn send_stale<B: Board>(board: &mut B, last: &mut Option<PoseFrame>, silent_ms: 
         );
     }
     frame.status = PoseStatus::Stale;
+    frame.availability = PoseAvailability::Stale;
     send(board, &frame);
     *last = Some(frame);
 }

@@ -38,6 +38,8 @@ pub struct EstimatorOutput {
     pub sigma: (f64, f64, f64),
     /// What the estimator made of the scan.
     pub status: EstimatorStatus,
+    /// The estimate's protection level and availability (`None`: the estimator gives none).
+    pub protection: Option<loc_core::localizer::Protection>,
 }
 
 /// A pose estimator fed like the one on the vehicle: odometry readings and scans in.
@@ -90,6 +92,7 @@ impl Estimator for OdometryOnly {
             pose: self.pose,
             sigma: self.sigma,
             status: EstimatorStatus::Odometry,
+            protection: None,
         }
     }
 }
@@ -405,6 +408,7 @@ pub fn run(
                 estimate: out.pose,
                 odometry: odometry.pose(),
                 sigma: out.sigma,
+                protection: out.protection,
                 update_us,
             });
             statuses.push(out.status);

@@ -197,6 +197,7 @@ impl Estimator for LocCoreEstimator<'_> {
             pose,
             sigma,
             status,
+            protection: Some(self.localizer.protection()),
         }
     }
 }

@@ -14,6 +14,8 @@
 
 use serde::Serialize;
 
+use loc_core::localizer::Availability;
+
 use crate::vehicle::SimPose;
 use crate::world::centerline::{wrap_pi, CenterLine};
 
@@ -38,6 +40,10 @@ pub struct Sample {
     /// The estimate's position standard deviations (square roots of the covariance's
     /// diagonal), metres: `(σx, σy)`; heading σ in radians.
     pub sigma: (f64, f64, f64),
+    /// The estimate's protection level and availability (`None`: the estimator gives
+    /// none).
+    #[serde(skip)]
+    pub protection: Option<loc_core::localizer::Protection>,
     /// CPU time the estimator took for this scan, microseconds.
     pub update_us: f64,
 }
@@ -84,6 +90,125 @@ pub fn worst_sigmas<'a>(samples: impl IntoIterator<Item = &'a Sample>) -> Option
         }
     }
     worst
+}
+
+/// How the protection levels of a run's scans held against the truth (loc-core's
+/// [`Protection`]: a bound on the horizontal position error, and whether the pose was
+/// available). Sums over runs with [`ProtectionSummary::add`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct ProtectionSummary {
+    /// Scans with a protection level reported (bounded or not).
+    pub scans: usize,
+    /// Of which with a bound (a level).
+    pub bounded: usize,
+    /// Of those, the position error within the level.
+    pub bounded_within: usize,
+    /// Scans flagged available.
+    pub available: usize,
+    /// Scans flagged available with the position error above the level: misleading
+    /// information, the outcome the integrity risk bounds (target 0).
+    pub misleading: usize,
+    /// Scans unavailable for want of a pose (not initialised, relocalising).
+    pub unavailable_no_pose: usize,
+    /// Scans unavailable for a detected fault (map unconfirmed, gate refusal).
+    pub unavailable_fault: usize,
+    /// Scans unavailable with the level above the alert limit.
+    pub unavailable_above_limit: usize,
+    /// The largest position error over the level among available scans.
+    pub worst_available_ratio: f64,
+    /// Sum of the levels of available scans, metres (for the mean).
+    pub available_level_sum_m: f64,
+    /// The largest level of an available scan, metres.
+    pub available_level_max_m: f64,
+}
+
+impl ProtectionSummary {
+    /// Summarises `samples`; `None` when none carries a protection level (an estimator
+    /// without one).
+    pub fn of(samples: &[Sample]) -> Option<Self> {
+        let mut out = Self::default();
+        for s in samples {
+            let Some(p) = s.protection else { continue };
+            out.scans += 1;
+            let e = (s.estimate.x_m - s.truth.x_m).hypot(s.estimate.y_m - s.truth.y_m);
+            if let Some(level) = p.level_m.map(f64::from) {
+                out.bounded += 1;
+                // A non-finite error is not within any bound.
+                if e <= level {
+                    out.bounded_within += 1;
+                }
+                if p.is_available() {
+                    out.available += 1;
+                    out.available_level_sum_m += level;
+                    out.available_level_max_m = out.available_level_max_m.max(level);
+                    if e.is_nan() || e > level {
+                        out.misleading += 1;
+                    }
+                    out.worst_available_ratio = max_or_nan(out.worst_available_ratio, e / level);
+                }
+            }
+            match p.availability {
+                Availability::Available => {}
+                Availability::NoPose => out.unavailable_no_pose += 1,
+                Availability::FaultDetected => out.unavailable_fault += 1,
+                _ => out.unavailable_above_limit += 1,
+            }
+        }
+        (out.scans > 0).then_some(out)
+    }
+
+    /// Adds another run's summary.
+    pub fn add(&mut self, o: &Self) {
+        self.scans += o.scans;
+        self.bounded += o.bounded;
+        self.bounded_within += o.bounded_within;
+        self.available += o.available;
+        self.misleading += o.misleading;
+        self.unavailable_no_pose += o.unavailable_no_pose;
+        self.unavailable_fault += o.unavailable_fault;
+        self.unavailable_above_limit += o.unavailable_above_limit;
+        self.worst_available_ratio =
+            max_or_nan(self.worst_available_ratio, o.worst_available_ratio);
+        self.available_level_sum_m += o.available_level_sum_m;
+        self.available_level_max_m = self.available_level_max_m.max(o.available_level_max_m);
+    }
+
+    /// The share of bounded scans whose error was within the level (1 without any).
+    pub fn bounded_fraction(&self) -> f64 {
+        if self.bounded == 0 {
+            1.0
+        } else {
+            self.bounded_within as f64 / self.bounded as f64
+        }
+    }
+
+    /// Mean level of the available scans, metres (0 without any).
+    pub fn mean_available_level_m(&self) -> f64 {
+        if self.available == 0 {
+            0.0
+        } else {
+            self.available_level_sum_m / self.available as f64
+        }
+    }
+
+    /// One line for reports.
+    pub fn line(&self) -> String {
+        format!(
+            "protection level: bounds the error on {} of {} bounded scans ({:.4} %); available {} of {} scans (level mean {:.3} m, max {:.3} m; worst error {:.2} of the level); misleading (available, error above the level) {}; unavailable: no pose {}, fault detected {}, above the alert limit {}",
+            self.bounded_within,
+            self.bounded,
+            100.0 * self.bounded_fraction(),
+            self.available,
+            self.scans,
+            self.mean_available_level_m(),
+            self.available_level_max_m,
+            self.worst_available_ratio,
+            self.misleading,
+            self.unavailable_no_pose,
+            self.unavailable_fault,
+            self.unavailable_above_limit
+        )
+    }
 }
 
 /// The larger of `a` and `b`, NaN when either is: a maximum over errors one of which cannot
@@ -350,6 +475,7 @@ mod tests {
                     estimate: pose(f64::NAN, f64::NAN, f64::NAN),
                     odometry: pose(d, 0.0, 0.0),
                     sigma: (0.0, 0.0, 0.0),
+                    protection: None,
                     update_us: 1.0,
                 }
             })
@@ -375,6 +501,7 @@ mod tests {
             estimate: pose(t + ex, 0.0, -3.1),
             odometry: pose(t, 0.0, 0.0),
             sigma,
+            protection: None,
             update_us: 1.0,
         };
         // Heading 3.1 vs -3.1 is 0.083 rad apart across ±π: 0.83 σ at σθ = 0.1.
@@ -426,6 +553,7 @@ mod tests {
                     },
                     odometry: pose(d - 1.0, 0.0, 0.0),
                     sigma: (0.0, 0.0, 0.0),
+                    protection: None,
                     update_us: 100.0 + d,
                 }
             })

@@ -84,6 +84,9 @@ pub struct MetricsJson {
     /// The worst error in σ on a scan reported tracking (`null` when none was): above 5
     /// the localiser was confidently wrong.
     pub tracking_worst_error_sigmas: Option<f64>,
+    /// How the protection levels held against the truth (`null`: the estimator gives
+    /// none).
+    pub protection: Option<crate::metrics::ProtectionSummary>,
     /// What looked wrong in the inputs but did not stop the run (a replay's damaged scans,
     /// odometry gaps, …); empty when nothing did.
     pub warnings: Vec<String>,
@@ -118,6 +121,7 @@ impl MetricsJson {
             world: log.world,
             status_counts,
             tracking_worst_error_sigmas: log.worst_tracking_sigmas().map(|w| w.error_sigmas),
+            protection: crate::metrics::ProtectionSummary::of(&log.samples),
             warnings: Vec::new(),
             cramer_rao: None,
         }
@@ -154,12 +158,12 @@ impl MetricsJson {
 pub fn write_trajectories_csv(log: &RunLog, w: &mut dyn Write) -> std::io::Result<()> {
     writeln!(
         w,
-        "t_s,distance_m,chainage_m,true_x_m,true_y_m,true_theta_rad,est_x_m,est_y_m,est_theta_rad,odo_x_m,odo_y_m,odo_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad,status,update_us"
+        "t_s,distance_m,chainage_m,true_x_m,true_y_m,true_theta_rad,est_x_m,est_y_m,est_theta_rad,odo_x_m,odo_y_m,odo_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad,status,update_us,protection_m,availability"
     )?;
     for (s, status) in log.samples.iter().zip(&log.statuses) {
         writeln!(
             w,
-            "{:.3},{:.4},{:.4},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{},{:.1}",
+            "{:.3},{:.4},{:.4},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{:.5},{:.5},{:.6},{},{:.1},{},{}",
             s.t_s,
             s.distance_m,
             s.chainage_m,
@@ -176,10 +180,27 @@ pub fn write_trajectories_csv(log: &RunLog, w: &mut dyn Write) -> std::io::Resul
             s.sigma.1,
             s.sigma.2,
             status,
-            s.update_us
+            s.update_us,
+            s.protection
+                .and_then(|p| p.level_m)
+                .map_or(String::new(), |l| format!("{l:.4}")),
+            s.protection
+                .map_or(String::new(), |p| availability_label(p.availability).to_string()),
         )?;
     }
     Ok(())
+}
+
+/// The availability as one word for the CSV (`available`, `above-alert-limit`,
+/// `fault-detected`, `no-pose`).
+fn availability_label(a: loc_core::localizer::Availability) -> &'static str {
+    use loc_core::localizer::Availability as A;
+    match a {
+        A::Available => "available",
+        A::AboveAlertLimit => "above-alert-limit",
+        A::FaultDetected => "fault-detected",
+        _ => "no-pose",
+    }
 }
 
 fn write_file(

@@ -18,6 +18,7 @@ use loc_core::rng::Pcg32;
 
 use crate::closed_loop::{self, RunLog, RunOptions, Teleport};
 use crate::estimator::LocCoreEstimator;
+use crate::metrics::ProtectionSummary;
 use crate::scenario::Scenario;
 use crate::session::SimError;
 use crate::stored_map;
@@ -81,6 +82,8 @@ pub struct RunOutcome {
     pub relocks: usize,
     /// The status changes: `metres:status` from the start (power-up) or the kidnapping.
     pub timeline: String,
+    /// How the protection levels held against the truth over the whole run.
+    pub protection: ProtectionSummary,
 }
 
 /// A whole study.
@@ -106,6 +109,15 @@ impl StudyResult {
     /// Runs with any wrong-lock scan.
     pub fn wrong_lock_runs(&self) -> usize {
         self.runs.iter().filter(|r| r.wrong_lock_scans > 0).count()
+    }
+
+    /// The protection levels over every run.
+    pub fn protection(&self) -> ProtectionSummary {
+        let mut p = ProtectionSummary::default();
+        for r in &self.runs {
+            p.add(&r.protection);
+        }
+        p
     }
 
     /// Metres to tracking: (median, 90th percentile, max) over the runs that tracked.
@@ -169,6 +181,7 @@ impl StudyResult {
             s,
             "  tracking scans outside 3σ of their covariance: {outside} of {tracking}"
         );
+        let _ = writeln!(s, "  {}", self.protection().line());
         let relocks: usize = self.runs.iter().map(|r| r.relocks).sum();
         let _ = writeln!(
             s,
@@ -284,6 +297,7 @@ fn outcome(log: &RunLog, start_m: f64, jump_m: f64, kidnapped_at_m: Option<f64>)
         worst_tracking_error_m: 0.0,
         relocks: 0,
         timeline: String::new(),
+        protection: ProtectionSummary::of(&log.samples).unwrap_or_default(),
     };
     let mut last_label = "";
     // Power-up runs start relocalising; a kidnapping's first entry is its detection.

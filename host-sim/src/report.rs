@@ -276,6 +276,10 @@ pub fn run_report(log: &RunLog, m: &Metrics) -> String {
         comparison_table(&cols),
         status_line(log)
     );
+    if let Some(p) = crate::metrics::ProtectionSummary::of(&log.samples) {
+        text.push('\n');
+        text.push_str(&p.line());
+    }
     if !by_distance.is_empty() {
         text.push_str("\n\n");
         text.push_str(by_distance.trim_end());
@@ -341,6 +345,7 @@ mod tests {
                     estimate: p(d, if d <= 100.0 { 0.01 } else { 0.02 }),
                     odometry: p(d, 1.0),
                     sigma: (0.0, 0.0, 0.0),
+                    protection: None,
                     update_us: 1.0,
                 }
             })

@@ -93,6 +93,12 @@ pub fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
 }
 
+/// Natural logarithm; NaN for negative input, −∞ at 0.
+#[inline]
+pub fn ln(x: f32) -> f32 {
+    libm::logf(x)
+}
+
 /// Absolute value.
 #[inline]
 pub fn abs(x: f32) -> f32 {

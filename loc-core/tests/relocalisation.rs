@@ -9,7 +9,7 @@
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
-use loc_core::localizer::{Localizer, LocalizerConfig, Status};
+use loc_core::localizer::{Availability, Localizer, LocalizerConfig, Status};
 use loc_core::map::TunnelMap;
 use loc_core::math;
 use loc_core::rng::Pcg32;
@@ -51,6 +51,8 @@ struct Drive {
     wrong_tracking_scans: u32,
     /// The status after the last scan.
     last_status: Status,
+    /// Scans whose pose was available (protection level within the alert limit).
+    available_scans: u32,
 }
 
 /// Drives `length_m` from arc `s0_m` (backwards when `reverse`) with a localizer that
@@ -85,6 +87,7 @@ fn drive(
         worst_tracking_error_m: 0.0,
         wrong_tracking_scans: 0,
         last_status: Status::NotInitialised,
+        available_scans: 0,
     };
     let mut driven = 0.0f32;
     let mut kidnapped_at: Option<f32> = None;
@@ -112,6 +115,27 @@ fn drive(
         sim.simulate_scan(&*t.map, &truth, &setup, LMS511_MAX_BEAMS, &mut scan);
         let status = localizer.update_scan(&scan);
         result.last_status = status;
+        // The protection level: no pose while relocalising, no bound while a lock waits for
+        // the map's confirmation; where it is given and available, it holds.
+        let protection = localizer.protection();
+        match status {
+            Status::Relocalising { .. } => {
+                assert_eq!(protection.availability, Availability::NoPose)
+            }
+            Status::MapUnconfirmed { .. } => {
+                assert_eq!(protection.availability, Availability::FaultDetected)
+            }
+            _ => {}
+        }
+        if let (true, Some(level_m), Some(p)) = (
+            protection.is_available(),
+            protection.level_m,
+            localizer.pose(),
+        ) {
+            let e = math::hypot(p.x_m - truth.x_m, p.y_m - truth.y_m);
+            assert!(e <= level_m, "available with {e} m error above {level_m} m");
+            result.available_scans += 1;
+        }
         if matches!(status, Status::Tracking | Status::Degenerate { .. }) {
             let p = localizer.pose().expect("tracking has a pose");
             let e = math::hypot(p.x_m - truth.x_m, p.y_m - truth.y_m);
@@ -146,6 +170,7 @@ fn power_up_anywhere_on_a_straight_kilometre_tracks_within_30_m() {
             .unwrap_or_else(|| panic!("start {s0:.1} m reverse {reverse}: never tracked ({d:?})"));
         assert!(m <= 30.0, "start {s0:.1} m: tracking after {m:.1} m");
         assert!(d.worst_tracking_error_m < 0.05, "{d:?}");
+        assert!(d.available_scans > 0, "never available: {d:?}");
         metres.push(m);
     }
     eprintln!("metres to tracking: {metres:?}");

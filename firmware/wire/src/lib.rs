@@ -23,4 +23,6 @@ pub mod pose;
 
 pub use assembler::{Assembled, FrameAssembler};
 pub use odometry::{OdometryFrame, MAX_ODOMETRY_FRAME_BYTES};
-pub use pose::{FrameError, MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES, STAGE_NAMES};
+pub use pose::{
+    FrameError, MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES, STAGE_NAMES,
+};

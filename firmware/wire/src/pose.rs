@@ -40,6 +40,25 @@ pub enum PoseStatus {
     Relocalising,
 }
 
+/// Whether the vehicle may act on the pose (loc-core's protection level against the alert
+/// limit; see [`PoseFrame::protection_m`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PoseAvailability {
+    /// The protection level is within the alert limit and no fault stands: use the pose.
+    Available,
+    /// The protection level exceeds the alert limit (long without a landmark, or on motion
+    /// prediction alone): bounded, but not well enough.
+    AboveAlertLimit,
+    /// A fault was detected and not excluded (landmarks not fitting the map, a match refused
+    /// by the filter's gate): no bound.
+    FaultDetected,
+    /// No pose to bound (no map, not initialised, relocalising).
+    NoPose,
+    /// No scan lately ([`PoseStatus::Stale`]): the bound was for an earlier moment.
+    Stale,
+}
+
 /// What the motion prediction before the scan rested on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -70,6 +89,12 @@ pub struct PoseFrame {
     pub covariance_upper: [f32; 6],
     /// What the estimate rests on.
     pub status: PoseStatus,
+    /// The protection level: a bound on the horizontal position error, metres, holding
+    /// except with the localiser's integrity risk (10⁻⁵ per scan by default);
+    /// `f32::INFINITY` when there is no bound (see `availability`).
+    pub protection_m: f32,
+    /// Whether the vehicle may act on the pose.
+    pub availability: PoseAvailability,
     /// What the motion prediction before this scan rested on.
     pub motion: MotionSource,
     /// The controller restarted after a reset (watchdog, fault) and has not tracked since:
@@ -127,6 +152,8 @@ impl PoseFrame {
             theta_rad: 0.0,
             covariance_upper: [0.0; 6],
             status: PoseStatus::NoMap,
+            protection_m: f32::INFINITY,
+            availability: PoseAvailability::NoPose,
             motion: MotionSource::None,
             after_reset: false,
             work: 0,
@@ -160,6 +187,8 @@ mod tests {
             theta_rad: -3.14,
             covariance_upper: [f32::MAX; 6],
             status: PoseStatus::MapUnconfirmed,
+            protection_m: f32::MAX,
+            availability: PoseAvailability::AboveAlertLimit,
             motion: MotionSource::ConstantVelocity,
             after_reset: true,
             work: u32::MAX,

@@ -198,15 +198,16 @@ pub fn write_estimates(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Resul
 /// the prediction rested on, whether after a reset, and the work on the scan, end to end and
 /// by stage (`work_scan` … `work_filter`).
 pub fn write_frames(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
-    let mut text = String::from("scan,t_s,status,motion,after_reset,work");
+    let mut text =
+        String::from("scan,t_s,status,protection_m,availability,motion,after_reset,work");
     for name in controller_wire::STAGE_NAMES {
         text.push_str(&format!(",work_{name}"));
     }
     text.push('\n');
     for (k, (t_s, p)) in times.iter().zip(poses).enumerate() {
         text.push_str(&format!(
-            "{k},{t_s:.6},{:?},{:?},{},{}",
-            p.status, p.motion, p.after_reset, p.work
+            "{k},{t_s:.6},{:?},{:.4},{:?},{:?},{},{}",
+            p.status, p.protection_m, p.availability, p.motion, p.after_reset, p.work
         ));
         for w in p.stage_work {
             text.push_str(&format!(",{w}"));

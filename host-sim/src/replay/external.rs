@@ -220,6 +220,7 @@ impl Estimator for ExternalEstimates {
             pose: r.map_or(SimPose::default(), |r| r.pose),
             sigma: r.map_or((f64::NAN, f64::NAN, f64::NAN), |r| r.sigma),
             status: EstimatorStatus::External,
+            protection: None,
         }
     }
 

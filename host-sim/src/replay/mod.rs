@@ -226,6 +226,8 @@ pub struct ReplayStep {
     pub sigma: (f64, f64, f64),
     /// What the estimator made of the scan.
     pub status: EstimatorStatus,
+    /// The estimate's protection level (`None`: the estimator gives none).
+    pub protection: Option<loc_core::localizer::Protection>,
     /// Dead reckoning from the odometry log alone at the scan.
     pub odometry: SimPose,
     /// Time the estimator took for the scan, microseconds.
@@ -603,6 +605,7 @@ fn drive(
             estimate: out.pose,
             sigma: out.sigma,
             status: out.status,
+            protection: out.protection,
             odometry: odo_pose,
             update_us,
             bound: bound.as_mut().and_then(|(b, rows)| {

@@ -101,6 +101,7 @@ pub fn samples(
                 estimate: s.estimate,
                 odometry: s.odometry,
                 sigma: s.sigma,
+                protection: s.protection,
                 update_us: s.update_us,
             },
         ));
@@ -132,6 +133,7 @@ mod tests {
             estimate: SimPose::default(),
             sigma: (0.0, 0.0, 0.0),
             status: crate::status::EstimatorStatus::Odometry,
+            protection: None,
             odometry: SimPose::default(),
             update_us: 0.0,
             bound: None,

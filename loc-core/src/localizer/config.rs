@@ -5,6 +5,7 @@ use nalgebra::Matrix3;
 
 use super::integrity::IntegrityConfig;
 use super::largest_position_sd_m;
+use super::protection::ProtectionConfig;
 use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
 use crate::matching::{MatchConfig, PrealignConfig};
 use crate::relocalise::RelocaliseConfig;
@@ -47,6 +48,8 @@ pub struct LocalizerConfig {
     /// Global relocalisation on the landmarks' spacing, and when the localizer declares
     /// itself lost.
     pub relocalise: RelocaliseConfig,
+    /// The integrity risk, alert limit and fault bounds of the protection level.
+    pub protection: ProtectionConfig,
 }
 
 impl LocalizerConfig {
@@ -64,6 +67,7 @@ impl LocalizerConfig {
         update: UpdateConfig::DEFAULT,
         integrity: IntegrityConfig::DEFAULT,
         relocalise: RelocaliseConfig::DEFAULT,
+        protection: ProtectionConfig::DEFAULT,
     };
 }
 

@@ -28,6 +28,7 @@
 mod config;
 mod config_record;
 mod integrity;
+mod protection;
 mod stages;
 mod start_pose;
 mod status;
@@ -37,6 +38,7 @@ pub use config_record::{
     ConfigRecordError, CONFIG_FORMAT_VERSION, CONFIG_MAGIC, CONFIG_RECORD_MAX_BYTES,
 };
 pub use integrity::{Integrity, IntegrityConfig, IntegrityMonitor};
+pub use protection::{Availability, Protection, ProtectionConfig};
 pub use stages::{Stage, StageObserver};
 pub use start_pose::{
     StartPose, StartPoseError, START_POSE_BYTES, START_POSE_MAGIC, START_POSE_VERSION,
@@ -509,6 +511,18 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
                 [c.m31, c.m32, c.m33],
             ]
         })
+    }
+
+    /// The protection level of the pose after the last call: a bound on the horizontal
+    /// position error holding except with `config.protection`'s integrity risk, and whether
+    /// the pose may be used (the `protection` module docs: how it is
+    /// derived and what it assumes).
+    pub fn protection(&self) -> Protection {
+        Protection::of(
+            &self.status,
+            self.covariance_matrix().as_ref(),
+            &self.config.protection,
+        )
     }
 
     /// The covariance as a matrix; `None` before initialisation.

@@ -1,6 +1,6 @@
 //! The on-target tests themselves, one function each, registered in [`run_all`].
 
-use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
+use controller_wire::{MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 use firmware::board::{Board, CounterUnit, SelectedBoard};
 use firmware::controller::{self, Controller, StartSource, START_POSE_BLOCK_BYTES};
 use firmware::odometry::OdometryInput;
@@ -138,6 +138,8 @@ fn sample_frame() -> PoseFrame {
         theta_rad: 0.125,
         covariance_upper: [1e-3, 0.0, 0.0, 2e-3, 0.0, 1e-4],
         status: PoseStatus::Tracking,
+        protection_m: 0.08,
+        availability: PoseAvailability::Available,
         motion: MotionSource::Odometry,
         after_reset: false,
         work: 1_234_567,
