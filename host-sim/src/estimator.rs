@@ -171,7 +171,7 @@ impl Estimator for LocCoreEstimator<'_> {
         self.coast(gap);
         let loaded = scan_input::load_values(
             &scan.layout,
-            scan.dist1.iter().copied(),
+            scan.dist1().iter().copied(),
             scan.scale_factor,
             scan.scale_offset_mm,
             &self.localizer.config().sensor,

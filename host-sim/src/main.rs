@@ -180,6 +180,16 @@ struct ScenarioArgs {
     /// LMS511 scan rate in Hz (25, 35, 50, 75, 100; resolution follows).
     #[arg(long, value_enum)]
     rate: Option<RateArg>,
+    /// Dust or spray: this share of the beams (0–1) returns an early echo from a cloud,
+    /// the wall on the next echo (scenario `[lidar.dust]`: range, blocked share, patches).
+    #[arg(long, value_name = "FRACTION")]
+    dust: Option<f64>,
+    /// People walking through the tunnel (scenario `[traffic]`).
+    #[arg(long, value_name = "N")]
+    people: Option<u32>,
+    /// Vehicles driving through the tunnel (scenario `[traffic]`).
+    #[arg(long, value_name = "N")]
+    vehicles: Option<u32>,
 }
 
 #[derive(Args)]
@@ -577,6 +587,9 @@ impl ScenarioArgs {
             length: None,
             speed: None,
             rate: None,
+            dust: None,
+            people: None,
+            vehicles: None,
         }
     }
 }
@@ -626,6 +639,9 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
             RateArg::Hz100 => ScanRate::Hz100,
         }),
         range_noise_m: None,
+        dust_fraction: a.dust,
+        people: a.people,
+        vehicles: a.vehicles,
     };
     o.apply(&mut s).map_err(|e| e.to_string())?;
     Ok(s)

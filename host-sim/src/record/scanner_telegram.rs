@@ -85,7 +85,7 @@ impl Lms511Telegrams {
             scale_offset: scan.scale_offset_mm,
             start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
             step_1e4_deg: scan.layout.step_1e4_deg,
-            values: scan.dist1.clone(),
+            values: scan.dist1().to_vec(),
         };
         ScanRepr {
             command_type: CommandType::Event,
@@ -165,7 +165,7 @@ mod tests {
     fn scan(t_s: f64, rate: ScanRate) -> LidarScan {
         LidarScan {
             t_s,
-            dist1: (0..rate.beam_count()).map(|i| (1000 + i) as u16).collect(),
+            echoes: vec![(0..rate.beam_count()).map(|i| (1000 + i) as u16).collect()],
             scale_factor: 1.0,
             scale_offset_mm: 0.0,
             layout: rate.layout(),
@@ -244,7 +244,7 @@ mod tests {
             });
             assert_eq!(decoded.len(), 3);
             for (k, (d, s)) in decoded.iter().zip(&scans).enumerate() {
-                assert_eq!(d.channels16[0].values, s.dist1);
+                assert_eq!(d.channels16[0].values, s.dist1());
                 assert_eq!(d.channels16[0].step_1e4_deg as u32, rate.step_1e4_deg());
                 assert_eq!(d.header.device_status, if k == 0 { [1, 0] } else { [0, 0] });
                 assert_eq!(d.header.telegram_counter as usize, k + 1);

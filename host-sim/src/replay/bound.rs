@@ -50,7 +50,7 @@ impl<'m> ScanBound<'m> {
     pub fn at(&mut self, scan: &LidarScan, truth: SimPose) -> Option<Matrix3<f64>> {
         scan_input::load_values(
             &scan.layout,
-            scan.dist1.iter().copied(),
+            scan.dist1().iter().copied(),
             scan.scale_factor,
             scan.scale_offset_mm,
             &self.sensor,

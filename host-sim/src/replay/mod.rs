@@ -498,6 +498,7 @@ pub fn replay_with(
         initial_estimate: (initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad),
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: 0.0,
+        echo_counts: crate::lidar::EchoCounts::default(),
     };
     warnings.extend(map_warning(&steps));
     let bound = if options.bound {

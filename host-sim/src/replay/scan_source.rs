@@ -158,7 +158,7 @@ fn lidar_scan(scan: &ScanData<'_>) -> Result<LidarScan, String> {
     let h = dist.header;
     Ok(LidarScan {
         t_s: 0.0,
-        dist1: dist.values().collect(),
+        echoes: vec![dist.values().collect()],
         scale_factor: h.scale_factor,
         scale_offset_mm: h.scale_offset,
         layout: BeamLayout::of(&scan.header, &h),
@@ -500,9 +500,9 @@ mod tests {
         assert_eq!(json.scans.len(), 174);
         assert_eq!(raw.time_source, TimeSource::ScannerClock);
         assert_eq!(json.time_source, TimeSource::Capture);
-        assert_eq!(raw.scans[0].dist1[..3], [1305, 1299, 1307]);
+        assert_eq!(raw.scans[0].dist1()[..3], [1305, 1299, 1307]);
         for (a, b) in raw.scans.iter().zip(&json.scans) {
-            assert_eq!((&a.dist1, a.layout), (&b.dist1, b.layout));
+            assert_eq!((a.dist1(), a.layout), (b.dist1(), b.layout));
         }
         // 25 Hz on the scanner's clock.
         let dt = raw.scans[1].t_s - raw.scans[0].t_s;

@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::landmarks::{LandmarkChoice, LandmarkChoiceError};
 use crate::lidar::LidarSpec;
+use crate::traffic::TrafficSpec;
 use crate::vehicle::odometry::OdometrySpec;
 use crate::vehicle::path_follower::DriveSpec;
 use crate::vehicle::skid_steer::SkidSteerSpec;
@@ -313,6 +314,9 @@ pub struct Scenario {
     /// The localiser.
     #[serde(default)]
     pub localizer: LocalizerConfig,
+    /// People and vehicles moving through the tunnel (in the scans, not in the map).
+    #[serde(default, skip_serializing_if = "TrafficSpec::is_empty")]
+    pub traffic: TrafficSpec,
     /// Directory that relative paths in the file are relative to (not a key).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -654,6 +658,13 @@ impl Scenario {
             "lidar.max_range_m",
             "must lie in (0, 80] m",
         )?;
+        let problems = [d.dust.problem(), self.traffic.problem(self.tunnel.width_m)];
+        if let Some((key, reason)) = problems.into_iter().flatten().next() {
+            return Err(ScenarioError::Invalid {
+                key,
+                reason: reason.to_string(),
+            });
+        }
         let v = &self.vehicle;
         check(
             v.track_width_m > 0.1 && v.track_width_m.is_finite(),
