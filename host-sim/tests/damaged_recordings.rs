@@ -16,8 +16,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Bytes of one recorded telegram (1141-beam DIST1-only `sSN LMDscandata`).
-const TELEGRAM: usize = 2391;
+/// Bytes of one recorded telegram (1141-beam `sSN LMDscandata` with DIST1…DIST5: 2391
+/// with DIST1 alone, 21 + 2 · 1141 more per further echo channel).
+const TELEGRAM: usize = 2391 + 4 * (21 + 2 * 1141);
 /// Largest error on a tracked scan, in its own standard deviations.
 const MAX_SIGMAS: f64 = 5.0;
 
@@ -212,7 +213,7 @@ fn variants(n: usize) -> Vec<Variant> {
         v(
             "bit flip in a range value",
             Box::new(move |d, _| stream(d, |b| b[at(10, 1200)] ^= 0x10)),
-            localises("scan 10 at byte 23910", n - 1),
+            localises("scan 10 at byte 116030", n - 1),
         ),
         v(
             "bit flips in five telegrams",

@@ -93,11 +93,12 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     ] {
         assert!(dir.path().join(name).is_file(), "{name}");
     }
-    // 2391 bytes per 1141-beam DIST1-only telegram.
+    // 2391 bytes per 1141-beam telegram with DIST1 alone, 21 + 2 · 1141 more for each of
+    // DIST2…DIST5.
     let stream = std::fs::metadata(dir.path().join(files::SCANNER))
         .unwrap()
         .len();
-    assert_eq!(stream, 2391 * log.scans.len() as u64);
+    assert_eq!(stream, 11_603 * log.scans.len() as u64);
 
     let sources = ReplaySources::in_dir(dir.path()).unwrap();
     let rep = replay::replay(&sources, EstimatorChoice::Localizer).unwrap();
@@ -243,9 +244,11 @@ fn a_recording_at_another_start_angle_is_localised_with_its_own_beam_angles() {
     framer.feed(&bytes, |f| {
         let scan = ScanData::new_checked(f.unwrap()).unwrap();
         let mut repr = ScanRepr::parse(&scan);
-        let dist = &mut repr.channels16[0];
-        dist.values.drain(..30);
-        dist.start_angle_1e4_deg = 0;
+        // Every echo channel alike: they are the echoes of the same beams.
+        for dist in &mut repr.channels16 {
+            dist.values.drain(..30);
+            dist.start_angle_1e4_deg = 0;
+        }
         cut.extend(repr.to_vec(Dialect::ColaB).unwrap());
     });
     std::fs::write(&path, cut).unwrap();
@@ -311,7 +314,7 @@ fn a_damaged_stream_loses_only_the_damaged_telegrams() {
     let n = log.scans.len();
     let stream_path = dir.path().join(files::SCANNER);
     let mut stream = std::fs::read(&stream_path).unwrap();
-    let telegram = 2391usize;
+    let telegram = 11_603usize;
     // Garbage between telegrams 60 and 61 (done first: the offsets below stay valid).
     let garbage = [0x55u8; 37];
     stream.splice(61 * telegram..61 * telegram, garbage);
@@ -333,12 +336,12 @@ fn a_damaged_stream_loses_only_the_damaged_telegrams() {
         .collect();
     assert_eq!(lost.len(), 2, "{:?}", rep.warnings);
     assert!(
-        lost[0].contains("scan 10 at byte 23910"),
+        lost[0].contains("scan 10 at byte 116030"),
         "{:?}",
         rep.warnings
     );
     assert!(
-        lost[1].contains("scan 40 at byte 95640"),
+        lost[1].contains("scan 40 at byte 464120"),
         "{:?}",
         rep.warnings
     );

@@ -7,18 +7,24 @@
 //! streamed telegrams, time since start-up in µs at the first shot (wrapping after 71.6 min),
 //! time of transmission one scan period plus 0.85 ms later (the capture shows 40.85 ms at
 //! 25 Hz), the frequency pair of the scan rate (scan frequency in 1/100 Hz; shot frequency
-//! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, one
-//! 16-bit `DIST1` channel (the scan's layout and scale: start −5° = −50000, step in
-//! 1/10000°, one raw value per beam, 0 = no echo; scale 1 mm, or 2 mm for a scan with an
-//! echo beyond 65.534 m), and the time block of the scanner's clock.
-//! No `RSSI1` channel: the simulator has no remission model, so the simulated scanner is set
+//! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, the
+//! five 16-bit distance channels `DIST1`…`DIST5` of a scanner set up for all five echoes
+//! (`LMDscandatacfg` output channel `0x1F`; each with the scan's layout and scale: start
+//! −5° = −50000, step in 1/10000°, one raw value per beam; scale 1 mm, or 2 mm for a scan
+//! with an echo beyond 65.534 m; echo `n` of a beam in `DISTn`, in range order, 0 where the
+//! beam has fewer than `n` echoes), and the time block of the scanner's clock.
+//! No `RSSI` channels: the simulator has no remission model, so the simulated scanner is set
 //! up with remission output off (`LMDscandatacfg` remission flag 0), which a real LMS511
 //! accepts.
 
 use lidar_driver::scandata::TimeBlock;
 use lidar_driver::{ChannelRepr, CommandType, Dialect, EmitError, ScanHeader, ScanRepr};
 
-use crate::lidar::{LidarScan, ScanRate};
+use crate::lidar::{LidarScan, ScanRate, MAX_ECHOES};
+
+/// `LMDscandatacfg` output channel of the simulated scanner: bit `n − 1` enables echo `n`,
+/// all five here (the channels its telegrams carry).
+pub const OUTPUT_CHANNEL_ECHOES: u16 = 0x1F;
 
 /// Serial number of the simulated scanner (the telegram's serial field).
 pub const SIMULATED_SERIAL: u32 = 99_000_511;
@@ -79,19 +85,32 @@ impl Lms511Telegrams {
             scan_frequency_1e2_hz: scan.layout.scan_frequency_1e2_hz,
             measurement_frequency_100hz: scan.layout.measurement_frequency_100hz,
         };
-        let dist1 = ChannelRepr {
-            name: *b"DIST1",
-            scale_factor: scan.scale_factor,
-            scale_offset: scan.scale_offset_mm,
-            start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
-            step_1e4_deg: scan.layout.step_1e4_deg,
-            values: scan.dist1().to_vec(),
-        };
+        let beams = scan.beams();
+        let distance = (0..MAX_ECHOES)
+            .filter(|k| OUTPUT_CHANNEL_ECHOES & (1 << k) != 0)
+            .map(|k| ChannelRepr {
+                name: *b"DIST1",
+                scale_factor: scan.scale_factor,
+                scale_offset: scan.scale_offset_mm,
+                start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
+                step_1e4_deg: scan.layout.step_1e4_deg,
+                values: scan
+                    .echoes
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| vec![0; beams]),
+            })
+            .enumerate()
+            .map(|(k, mut c)| {
+                c.name[4] = b'1' + k as u8;
+                c
+            })
+            .collect();
         ScanRepr {
             command_type: CommandType::Event,
             header,
             encoders: Vec::new(),
-            channels16: vec![dist1],
+            channels16: distance,
             channels8: Vec::new(),
             position: None,
             device_name: None,
@@ -215,9 +234,12 @@ mod tests {
         let lag = o.time_of_transmission_us - o.time_since_startup_us;
         let real_lag = r.time_of_transmission_us - r.time_since_startup_us;
         assert!(lag.abs_diff(real_lag) < 100, "{lag} vs {real_lag}");
-        // 3553 bytes without RSSI1 would be 3553 − 21 − 1141 with it: DIST1 only here.
+        // The real scan (3553 bytes) carries DIST1 and RSSI1 (21 + 1141 bytes); these carry
+        // DIST1…DIST5 (21 + 2 · 1141 bytes each) and no RSSI.
         let bytes = ours.to_vec(Dialect::ColaB).unwrap();
-        assert_eq!(bytes.len(), 3553 - 21 - 1141);
+        assert_eq!(bytes.len(), 3553 - 21 - 1141 + 4 * (21 + 2 * 1141));
+        let names: Vec<&[u8]> = ours.channels16.iter().map(|c| &c.name[..]).collect();
+        assert_eq!(names, [b"DIST1", b"DIST2", b"DIST3", b"DIST4", b"DIST5"]);
     }
 
     #[test]
@@ -245,6 +267,10 @@ mod tests {
             assert_eq!(decoded.len(), 3);
             for (k, (d, s)) in decoded.iter().zip(&scans).enumerate() {
                 assert_eq!(d.channels16[0].values, s.dist1());
+                assert_eq!(d.channels16.len(), 5);
+                assert!(d.channels16[1..]
+                    .iter()
+                    .all(|c| c.values.iter().all(|&v| v == 0)));
                 assert_eq!(d.channels16[0].step_1e4_deg as u32, rate.step_1e4_deg());
                 assert_eq!(d.header.device_status, if k == 0 { [1, 0] } else { [0, 0] });
                 assert_eq!(d.header.telegram_counter as usize, k + 1);
