@@ -40,7 +40,7 @@ use loc_core::localizer::{
 use loc_core::map::{MapError, MapImage};
 use loc_core::scan::Scan;
 use nalgebra::{Matrix3, Vector3};
-use scan_input::ScanInputError;
+use scan_input::{EchoSelection, ScanInputError};
 use static_cell::ConstStaticCell;
 
 use crate::board::{Board, ExitStatus};
@@ -51,6 +51,13 @@ use controller_wire::{MotionSource, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
 /// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
 pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
+
+/// Which echo of each beam the controller localises on: the last (the wall behind dust or
+/// spray). The session configures the scanner's first echo only (`SessionConfig`'s default
+/// `LMDscandatacfg`, `DIST1`), for which every selection gives the same scan; a scanner
+/// set up for more echoes (output channel `0x1F`, remission off: 11.6 kB per CoLa-B scan,
+/// within [`SESSION_BUFFER_BYTES`]; not in CoLa-A) has its last echo taken.
+pub const ECHO_SELECTION: EchoSelection = EchoSelection::Last;
 
 /// The last bytes of the map flash region, where the start-pose record lives.
 pub const START_POSE_BLOCK_BYTES: usize = 4096;
@@ -209,11 +216,11 @@ impl<'m> Controller<'m> {
         };
     }
 
-    /// Turns `telegram`'s `DIST1` channel into the scan to localise on (scan-input: the
-    /// telegram's own layout and scale).
+    /// Turns `telegram`'s distance channels into the scan to localise on (scan-input: the
+    /// telegram's own layout and scale, per beam the echo [`ECHO_SELECTION`] chooses).
     pub fn load_scan(&mut self, telegram: &ScanData<'_>) -> Result<(), ScanInputError> {
         let sensor = self.localizer.config().sensor;
-        scan_input::load_scan(telegram, &sensor, &mut self.scan).map(|_| ())
+        scan_input::load_scan(telegram, &sensor, ECHO_SELECTION, &mut self.scan).map(|_| ())
     }
 
     /// Localises on the loaded scan, reporting loc-core's stages to `observer`, and returns

@@ -379,7 +379,7 @@ fn another_localisers_estimates_score_as_the_replay_does() {
     let options = replay::ReplayOptions {
         keep_scans: false,
         estimates: Some(est.clone()),
-        bound: false,
+        ..replay::ReplayOptions::default()
     };
     let ext = replay::replay_with(&sources, EstimatorChoice::Localizer, &options).unwrap();
     assert_eq!(ext.log.samples.len(), own.log.samples.len());
@@ -435,8 +435,8 @@ fn the_cramer_rao_bound_of_each_scan_sits_beside_the_error() {
     let sources = ReplaySources::in_dir(dir.path()).unwrap();
     let options = replay::ReplayOptions {
         keep_scans: false,
-        estimates: None,
         bound: true,
+        ..replay::ReplayOptions::default()
     };
     let rep = replay::replay_with(&sources, EstimatorChoice::Localizer, &options).unwrap();
     let b = rep.bound.expect("a bound with ground truth");

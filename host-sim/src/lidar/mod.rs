@@ -191,6 +191,17 @@ impl LidarScan {
         self.dist1().len()
     }
 
+    /// The value of each beam that `selection` chooses among its echoes (scan-input's
+    /// choice: what the localiser gets).
+    pub fn selected(
+        &self,
+        selection: scan_input::EchoSelection,
+    ) -> scan_input::SelectedEchoes<std::iter::Copied<std::slice::Iter<'_, u16>>> {
+        let mut channels = self.echoes.iter();
+        let columns = std::array::from_fn(|_| channels.next().map(|c| c.iter().copied()));
+        scan_input::SelectedEchoes::new(columns, self.beams(), selection)
+    }
+
     /// Range of the first echo of beam `index`, metres; `None` for no echo, a saturated
     /// reading, or no beam.
     pub fn range_m(&self, index: usize) -> Option<f64> {

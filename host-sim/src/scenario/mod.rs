@@ -235,6 +235,40 @@ impl MatcherChoice {
     }
 }
 
+/// Which echo of each beam the localiser's scan input takes (scan-input's
+/// [`scan_input::EchoSelection`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EchoChoice {
+    /// The first echo (`DIST1`): dust in front of the wall is taken as the range.
+    First,
+    /// The last echo: the wall behind dust or spray (scan-input's default).
+    #[default]
+    Last,
+}
+
+impl EchoChoice {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EchoChoice::First => "first",
+            EchoChoice::Last => "last",
+        }
+    }
+
+    /// The scan input's selection.
+    pub fn selection(self) -> scan_input::EchoSelection {
+        match self {
+            EchoChoice::First => scan_input::EchoSelection::First,
+            EchoChoice::Last => scan_input::EchoSelection::Last,
+        }
+    }
+}
+
+fn is_default_echo(e: &EchoChoice) -> bool {
+    *e == EchoChoice::default()
+}
+
 /// The localiser section of a scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -261,6 +295,9 @@ pub struct LocalizerConfig {
     pub odometry_scale_drift_sd: f64,
     /// Distance over which `odometry_scale_drift_sd` holds, metres.
     pub odometry_scale_drift_length_m: f64,
+    /// Which echo of each beam the scan input takes (`first` or `last`).
+    #[serde(skip_serializing_if = "is_default_echo")]
+    pub echo: EchoChoice,
 }
 
 impl Default for LocalizerConfig {
@@ -280,6 +317,7 @@ impl Default for LocalizerConfig {
             odometry_scale_sd: decimal(odometry.scale_sd),
             odometry_scale_drift_sd: decimal(odometry.scale_drift_sd),
             odometry_scale_drift_length_m: decimal(odometry.scale_drift_length_m),
+            echo: EchoChoice::Last,
         }
     }
 }

@@ -46,6 +46,8 @@ pub struct Overrides {
     pub people: Option<u32>,
     /// Vehicles driving through it (`traffic.vehicles`).
     pub vehicles: Option<u32>,
+    /// Which echo of each beam the localiser takes (`localizer.echo`).
+    pub echo: Option<super::EchoChoice>,
 }
 
 impl Overrides {
@@ -115,6 +117,9 @@ impl Overrides {
         }
         if let Some(n) = self.vehicles {
             s.traffic.vehicles = n;
+        }
+        if let Some(e) = self.echo {
+            s.localizer.echo = e;
         }
         s.validate()
     }
