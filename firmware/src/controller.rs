@@ -41,7 +41,7 @@ use loc_core::localizer::{
 use loc_core::map::{MapError, MapImage};
 use loc_core::scan::Scan;
 use nalgebra::{Matrix3, Vector3};
-use scan_input::ScanInputError;
+use scan_input::{EchoSelection, ScanInputError};
 use static_cell::ConstStaticCell;
 
 use crate::board::{Board, ExitStatus};
@@ -50,8 +50,17 @@ use crate::odometry::{OdometryInput, ODOMETRY_STALE_MS};
 use crate::stage_costs::{ScanStage, StageTimer};
 use controller_wire::{MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
 
-/// Receive buffer of the LMS session, bytes (holds one LMS511 scan in either dialect).
-pub const SESSION_BUFFER_BYTES: usize = 16 * 1024;
+/// Receive buffer of the LMS session, bytes: one LMS511 scan in either dialect (1141 beams:
+/// DIST1 and RSSI ≈ 8.2 kB in CoLa-A; DIST1…DIST5 without RSSI 11.6 kB in CoLa-B). 12 KiB,
+/// not 16: the controller's RAM (static plus stack) must stay within 96 KiB.
+pub const SESSION_BUFFER_BYTES: usize = 12 * 1024;
+
+/// Which echo of each beam the controller localises on: the last (the wall behind dust or
+/// spray). The session configures the scanner's first echo only (`SessionConfig`'s default
+/// `LMDscandatacfg`, `DIST1`), for which every selection gives the same scan; a scanner
+/// set up for more echoes (output channel `0x1F`, remission off: 11.6 kB per CoLa-B scan,
+/// within [`SESSION_BUFFER_BYTES`]; not in CoLa-A) has its last echo taken.
+pub const ECHO_SELECTION: EchoSelection = EchoSelection::Last;
 
 /// The last bytes of the map flash region, where the start-pose record lives.
 pub const START_POSE_BLOCK_BYTES: usize = 4096;
@@ -210,11 +219,11 @@ impl<'m> Controller<'m> {
         };
     }
 
-    /// Turns `telegram`'s `DIST1` channel into the scan to localise on (scan-input: the
-    /// telegram's own layout and scale).
+    /// Turns `telegram`'s distance channels into the scan to localise on (scan-input: the
+    /// telegram's own layout and scale, per beam the echo [`ECHO_SELECTION`] chooses).
     pub fn load_scan(&mut self, telegram: &ScanData<'_>) -> Result<(), ScanInputError> {
         let sensor = self.localizer.config().sensor;
-        scan_input::load_scan(telegram, &sensor, &mut self.scan).map(|_| ())
+        scan_input::load_scan(telegram, &sensor, ECHO_SELECTION, &mut self.scan).map(|_| ())
     }
 
     /// Localises on the loaded scan, reporting loc-core's stages to `observer`, and returns

@@ -14,10 +14,11 @@ use cpu_time::ThreadTime;
 
 use loc_core::rng::Pcg32;
 
-use crate::lidar::{LidarScan, Lms511};
+use crate::lidar::{EchoCounts, LidarScan, Lms511};
 use crate::metrics::{self, Metrics, Sample};
 use crate::scenario::Scenario;
 use crate::status::EstimatorStatus;
+use crate::traffic::Traffic;
 use crate::vehicle::odometry::{Odometry, OdometrySample};
 use crate::vehicle::path_follower::PathFollower;
 use crate::vehicle::skid_steer::{SkidSteer, TrackSpeeds};
@@ -179,6 +180,9 @@ pub struct RunLog {
     pub wall_time_s: f64,
     /// CPU time spent ray casting, seconds.
     pub raycast_time_s: f64,
+    /// What the scans' first echoes came from (dust, people and vehicles; zero for a
+    /// replay).
+    pub echo_counts: EchoCounts,
 }
 
 impl RunLog {
@@ -233,7 +237,8 @@ impl RunLog {
 /// Options of a run.
 #[derive(Default)]
 pub struct RunOptions<'a> {
-    /// Keep every scan and odometry reading in the log (memory: ~2.3 kB per scan).
+    /// Keep every scan and odometry reading in the log (memory: ~2.3 kB per scan and
+    /// echo channel in use: clear air uses one, dust two).
     pub keep_scans: bool,
     /// Called now and then with the fraction of the drive done (0–1).
     pub progress: Option<&'a dyn Fn(f64)>,
@@ -285,6 +290,14 @@ pub fn run(
         seed ^ 0x0d0,
     );
     let mut lidar = Lms511::new(scenario.lidar, seed ^ 0x11d);
+    let traffic = Traffic::new(
+        scenario.traffic,
+        line,
+        (scenario.drive.start_m, scenario.drive.end_m),
+        scenario.tunnel.width_m,
+        seed ^ 0x7a,
+    );
+    let mut obstacles = Vec::new();
     let mut init_rng = Pcg32::new(seed, 0x1417);
     let c = &scenario.localizer;
     let initial = SimPose {
@@ -393,7 +406,13 @@ pub fn run(
             }
             // CPU time of this thread: other processes on the machine do not count.
             let r0 = ThreadTime::now();
-            let scan = lidar.scan(world.grid(), (after.x_m, after.y_m, after.theta_rad), t);
+            traffic.obstacles_at(line, t, &mut obstacles);
+            let scan = lidar.scan_among(
+                world.grid(),
+                &obstacles,
+                (after.x_m, after.y_m, after.theta_rad),
+                t,
+            );
             raycast_time += r0.elapsed().as_secs_f64();
             let e0 = ThreadTime::now();
             let out = estimator.scan(&scan);
@@ -444,6 +463,7 @@ pub fn run(
         initial_estimate,
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: raycast_time,
+        echo_counts: lidar.counts(),
     }
 }
 

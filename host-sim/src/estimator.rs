@@ -1,7 +1,8 @@
 //! loc-core's `Localizer` as the estimator of a closed-loop run, fed exactly as on the
 //! vehicle: each odometry reading becomes an `OdometryIncrement` prediction, each scan's
-//! `DIST1` values become a `Scan` through the one telegram-to-scan conversion
-//! ([`scan_input::load_values`], the firmware's too) and go through `update_scan`.
+//! echoes become a `Scan` through the one telegram-to-scan conversion (per beam the echo
+//! the scenario's `localizer.echo` chooses, [`scan_input::SelectedEchoes`], then
+//! [`scan_input::load_values`], the firmware's too) and go through `update_scan`.
 //!
 //! The localiser is configured for the simulated sensor: the mounting pose and range limits
 //! (the beam layout comes with each scan, as in its telegram), the range noise σ, the
@@ -15,6 +16,7 @@ use loc_core::map::TunnelMap;
 use loc_core::matching::{MatcherKind, RoughnessModel};
 use loc_core::scan::{Scan, ScanGeometry, SensorSetup};
 use nalgebra::Matrix3;
+use scan_input::EchoSelection;
 
 use crate::closed_loop::{Estimator, EstimatorOutput};
 use crate::lidar::{LidarScan, LidarSpec};
@@ -94,6 +96,8 @@ pub struct LocCoreEstimator<'m> {
     without_initial_pose: bool,
     scan: Box<Scan>,
     matcher: MatcherChoice,
+    /// Which echo of each beam becomes its range.
+    echo: EchoSelection,
     last_reset: SimPose,
     gaps: GapTracker,
 }
@@ -106,6 +110,7 @@ impl<'m> LocCoreEstimator<'m> {
             without_initial_pose: false,
             scan: Box::new(Scan::new()),
             matcher: scenario.localizer.matcher,
+            echo: scenario.localizer.echo.selection(),
             last_reset: SimPose::default(),
             gaps: GapTracker::default(),
         }
@@ -171,7 +176,7 @@ impl Estimator for LocCoreEstimator<'_> {
         self.coast(gap);
         let loaded = scan_input::load_values(
             &scan.layout,
-            scan.dist1.iter().copied(),
+            scan.selected(self.echo),
             scan.scale_factor,
             scan.scale_offset_mm,
             &self.localizer.config().sensor,

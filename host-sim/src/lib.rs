@@ -8,7 +8,9 @@
 //! Module map (one concern each):
 //! - [`world`]: centre line, wall roughness, landmark layout; true geometry vs design.
 //! - [`raycast`]: uniform-grid spatial index and ray casting over the true geometry.
-//! - [`lidar`]: the LMS511 model (rates, field of view, noise, no echo, `u16` mm).
+//! - [`lidar`]: the LMS511 model (rates, field of view, noise, no echo, up to five echoes,
+//!   `u16` mm); [`lidar::dust`] the dust and spray clouds in front of it.
+//! - [`traffic`]: people and vehicles moving through the tunnel, in the scans, not the map.
 //! - [`vehicle`]: ICR skid-steer kinematics with slip, path follower, wheel odometry.
 //!
 //! Frames: world (the map's, metres), vehicle (x forward, y left), sensor (the LMS511's).
@@ -37,6 +39,7 @@ pub mod session;
 pub mod status;
 pub mod stored_map;
 pub mod survey;
+pub mod traffic;
 pub mod vehicle;
 pub mod visuals;
 pub mod world;

@@ -36,7 +36,7 @@ use host_sim::replay::{self, ReplaySources};
 use host_sim::report::{self, Column};
 use host_sim::scenario::named::{named, NAMES};
 use host_sim::scenario::overrides::Overrides;
-use host_sim::scenario::{MatcherChoice, Scenario};
+use host_sim::scenario::{EchoChoice, MatcherChoice, Scenario};
 use host_sim::session::{run_scenario, EstimatorChoice};
 use host_sim::stored_map;
 use host_sim::visuals;
@@ -121,6 +121,23 @@ enum RateArg {
     Hz100,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum EchoArg {
+    /// The first echo (DIST1): dust in front of the wall is taken as the range.
+    First,
+    /// The last echo: the wall behind dust or spray.
+    Last,
+}
+
+impl EchoArg {
+    fn choice(self) -> EchoChoice {
+        match self {
+            EchoArg::First => EchoChoice::First,
+            EchoArg::Last => EchoChoice::Last,
+        }
+    }
+}
+
 #[derive(Args)]
 struct ScenarioArgs {
     /// Scenario file (TOML); see host-sim's README for the keys.
@@ -180,6 +197,20 @@ struct ScenarioArgs {
     /// LMS511 scan rate in Hz (25, 35, 50, 75, 100; resolution follows).
     #[arg(long, value_enum)]
     rate: Option<RateArg>,
+    /// Dust or spray: this share of the beams (0–1) returns an early echo from a cloud,
+    /// the wall on the next echo (scenario `[lidar.dust]`: range, blocked share, patches).
+    #[arg(long, value_name = "FRACTION")]
+    dust: Option<f64>,
+    /// People walking through the tunnel (scenario `[traffic]`).
+    #[arg(long, value_name = "N")]
+    people: Option<u32>,
+    /// Vehicles driving through the tunnel (scenario `[traffic]`).
+    #[arg(long, value_name = "N")]
+    vehicles: Option<u32>,
+    /// Which echo of each beam the localiser takes (scenario `localizer.echo`; default
+    /// last).
+    #[arg(long, value_enum)]
+    echo: Option<EchoArg>,
 }
 
 #[derive(Args)]
@@ -324,6 +355,10 @@ struct ReplayArgs {
     /// Print the metrics as one JSON object instead of the report.
     #[arg(long)]
     json: bool,
+    /// Which echo of each beam the localiser takes (default: the scenario's
+    /// `localizer.echo`, last unless it says otherwise).
+    #[arg(long, value_enum)]
+    echo: Option<EchoArg>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -577,6 +612,10 @@ impl ScenarioArgs {
             length: None,
             speed: None,
             rate: None,
+            dust: None,
+            people: None,
+            vehicles: None,
+            echo: None,
         }
     }
 }
@@ -626,6 +665,10 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
             RateArg::Hz100 => ScanRate::Hz100,
         }),
         range_noise_m: None,
+        dust_fraction: a.dust,
+        people: a.people,
+        vehicles: a.vehicles,
+        echo: a.echo.map(EchoArg::choice),
     };
     o.apply(&mut s).map_err(|e| e.to_string())?;
     Ok(s)
@@ -997,6 +1040,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         keep_scans: a.out.is_some(),
         estimates: a.estimates.clone(),
         bound: a.bound,
+        echo: a.echo.map(EchoArg::choice),
     };
     if a.bound && src.ground_truth.is_none() {
         return Err("--bound needs ground truth (ground_truth.csv or --truth)".into());

@@ -16,7 +16,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Bytes of one recorded telegram (1141-beam DIST1-only `sSN LMDscandata`).
+/// Bytes of one recorded telegram (1141-beam `sSN LMDscandata`, DIST1 alone in clear air).
 const TELEGRAM: usize = 2391;
 /// Largest error on a tracked scan, in its own standard deviations.
 const MAX_SIGMAS: f64 = 5.0;

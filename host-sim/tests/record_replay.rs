@@ -93,7 +93,7 @@ fn replaying_a_recorded_run_gives_the_runs_figures() {
     ] {
         assert!(dir.path().join(name).is_file(), "{name}");
     }
-    // 2391 bytes per 1141-beam DIST1-only telegram.
+    // 2391 bytes per 1141-beam telegram with DIST1 alone (clear air: one echo per beam).
     let stream = std::fs::metadata(dir.path().join(files::SCANNER))
         .unwrap()
         .len();
@@ -243,9 +243,11 @@ fn a_recording_at_another_start_angle_is_localised_with_its_own_beam_angles() {
     framer.feed(&bytes, |f| {
         let scan = ScanData::new_checked(f.unwrap()).unwrap();
         let mut repr = ScanRepr::parse(&scan);
-        let dist = &mut repr.channels16[0];
-        dist.values.drain(..30);
-        dist.start_angle_1e4_deg = 0;
+        // Every echo channel alike: they are the echoes of the same beams.
+        for dist in &mut repr.channels16 {
+            dist.values.drain(..30);
+            dist.start_angle_1e4_deg = 0;
+        }
         cut.extend(repr.to_vec(Dialect::ColaB).unwrap());
     });
     std::fs::write(&path, cut).unwrap();
@@ -376,7 +378,7 @@ fn another_localisers_estimates_score_as_the_replay_does() {
     let options = replay::ReplayOptions {
         keep_scans: false,
         estimates: Some(est.clone()),
-        bound: false,
+        ..replay::ReplayOptions::default()
     };
     let ext = replay::replay_with(&sources, EstimatorChoice::Localizer, &options).unwrap();
     assert_eq!(ext.log.samples.len(), own.log.samples.len());
@@ -432,8 +434,8 @@ fn the_cramer_rao_bound_of_each_scan_sits_beside_the_error() {
     let sources = ReplaySources::in_dir(dir.path()).unwrap();
     let options = replay::ReplayOptions {
         keep_scans: false,
-        estimates: None,
         bound: true,
+        ..replay::ReplayOptions::default()
     };
     let rep = replay::replay_with(&sources, EstimatorChoice::Localizer, &options).unwrap();
     let b = rep.bound.expect("a bound with ground truth");

@@ -231,7 +231,7 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         &ReplayOptions {
             keep_scans: false,
             estimates: Some(estimates),
-            bound: false,
+            ..ReplayOptions::default()
         },
     )
     .map_err(|e| host(&e))?;

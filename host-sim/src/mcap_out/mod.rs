@@ -197,14 +197,14 @@ pub fn write_mcap(path: &Path, log: &RunLog, lines: &MapLines) -> Result<(), Mca
         put(&mut w, est_ch, s.t_s, &pose_in_frame(s.t_s, s.estimate))?;
         put(&mut w, odo_ch, s.t_s, &pose_in_frame(s.t_s, s.odometry))?;
         if let Some(scan) = scans.and_then(|v| v.get(i)) {
-            let n = scan.dist1.len().max(1) - 1;
+            let n = scan.dist1().len().max(1) - 1;
             let msg = json!({
                 "timestamp": stamp(scan.t_s),
                 "frame_id": VEHICLE_FRAME,
                 "pose": pose_json(lidar.mount_x_m, lidar.mount_y_m, lidar.mount_yaw_rad),
                 "start_angle": scan.layout.start_angle_rad(),
                 "end_angle": scan.layout.beam_angle_rad(n),
-                "ranges": (0..scan.dist1.len()).map(|i| scan.range_m(i).unwrap_or(0.0)).collect::<Vec<_>>(),
+                "ranges": (0..scan.dist1().len()).map(|i| scan.range_m(i).unwrap_or(0.0)).collect::<Vec<_>>(),
                 "intensities": []
             });
             put(&mut w, scan_ch, scan.t_s, &msg)?;

@@ -140,7 +140,11 @@ pub fn write_recording(
     let mut written = Vec::new();
 
     // The scanner stream and its receive times.
-    let mut telegrams = scanner_telegram::Lms511Telegrams::new(log.scenario.lidar.rate);
+    let lidar = &log.scenario.lidar;
+    let mut telegrams = scanner_telegram::Lms511Telegrams::with_output_channel(
+        lidar.rate,
+        scanner_telegram::output_channel_for(lidar.dust.fraction),
+    );
     let mut stream = Vec::new();
     let mut times = String::from("index,t_s,offset_bytes,length_bytes,telegram_counter\n");
     for (index, scan) in log.scans.iter().enumerate() {

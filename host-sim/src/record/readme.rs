@@ -28,9 +28,9 @@ world frame of the map (x, y in metres; headings in radians, counter-clockwise, 
     Header: version 0, device number 1, serial {serial}, device status 01 00 on the first
     telegram then 00 00, telegram counter from 1, scan counter and time since start-up (us)
     counted from power-up {power_up} s before the run, time block from 2026-01-01 00:00:00.
-    One 16-bit DIST1 channel: range in mm = value x scale factor (1; 2 in a scan with an echo
-    beyond 65.534 m), 0 = no echo. No RSSI
-    channel (remission output off). Decode it with `sick-dump {scanner}` (lidar-driver).
+    {channels}; range in mm = value x scale factor (1; 2 in a scan with
+    an echo beyond 65.534 m), 0 = no (further) echo. No RSSI channels (remission output
+    off). Decode it with `sick-dump {scanner}` (lidar-driver).
 
 {times}
     Columns: index, t_s (the vehicle computer's time stamp of the telegram, s; the simulation
@@ -89,5 +89,15 @@ initial_pose.csv and scenario.toml; ground_truth.csv is optional (metrics need i
         serial = SIMULATED_SERIAL,
         power_up = super::scanner_telegram::POWER_UP_BEFORE_RUN_S,
         odo_hz = s.odometry.rate_hz,
+        channels = if super::scanner_telegram::output_channel_for(s.lidar.dust.fraction)
+            == super::scanner_telegram::OUTPUT_CHANNEL_ECHOES
+        {
+            "Five 16-bit channels DIST1..DIST5, all five echoes enabled (LMDscandatacfg output\n    \
+             channel 0x1F, as there is dust): echo n of a beam in DISTn, in range order (dust\n    \
+             before the wall: the wall on a later echo)"
+        } else {
+            "One 16-bit channel DIST1, the first echo (LMDscandatacfg output channel 0x01: clear\n    \
+             air, one echo per beam; with dust the recording carries DIST1..DIST5)"
+        },
     )
 }

@@ -7,18 +7,39 @@
 //! streamed telegrams, time since start-up in µs at the first shot (wrapping after 71.6 min),
 //! time of transmission one scan period plus 0.85 ms later (the capture shows 40.85 ms at
 //! 25 Hz), the frequency pair of the scan rate (scan frequency in 1/100 Hz; shot frequency
-//! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, one
-//! 16-bit `DIST1` channel (the scan's layout and scale: start −5° = −50000, step in
-//! 1/10000°, one raw value per beam, 0 = no echo; scale 1 mm, or 2 mm for a scan with an
-//! echo beyond 65.534 m), and the time block of the scanner's clock.
-//! No `RSSI1` channel: the simulator has no remission model, so the simulated scanner is set
+//! `f · 360° / step` in 100 Hz units: 540 = 54 kHz at 25 Hz / 0.1667°), no encoders, the
+//! five 16-bit distance channels `DIST1`…`DIST5` of a scanner set up for all five echoes
+//! (`LMDscandatacfg` output channel `0x1F`; each with the scan's layout and scale: start
+//! −5° = −50000, step in 1/10000°, one raw value per beam; scale 1 mm, or 2 mm for a scan
+//! with an echo beyond 65.534 m; echo `n` of a beam in `DISTn`, in range order, 0 where the
+//! beam has fewer than `n` echoes), and the time block of the scanner's clock.
+//! No `RSSI` channels: the simulator has no remission model, so the simulated scanner is set
 //! up with remission output off (`LMDscandatacfg` remission flag 0), which a real LMS511
 //! accepts.
 
 use lidar_driver::scandata::TimeBlock;
 use lidar_driver::{ChannelRepr, CommandType, Dialect, EmitError, ScanHeader, ScanRepr};
 
-use crate::lidar::{LidarScan, ScanRate};
+use crate::lidar::{LidarScan, ScanRate, MAX_ECHOES};
+
+/// `LMDscandatacfg` output channel of a scanner set up for all five echoes: bit `n − 1`
+/// enables echo `n` (what the simulated scanner sends where there is dust).
+pub const OUTPUT_CHANNEL_ECHOES: u16 = 0x1F;
+
+/// `LMDscandatacfg` output channel of a scanner set up for the first echo alone (DIST1:
+/// what the simulated scanner sends in clear air, as the firmware's session asks for it).
+pub const OUTPUT_CHANNEL_FIRST_ECHO: u16 = 0x01;
+
+/// The output channel the simulated scanner is set up with: all five echoes when there is
+/// dust in front of it (the scenario's `lidar.dust.fraction` above 0), else the first echo
+/// alone (one beam, one echo: four empty channels would quintuple a recording for nothing).
+pub fn output_channel_for(dust_fraction: f64) -> u16 {
+    if dust_fraction > 0.0 {
+        OUTPUT_CHANNEL_ECHOES
+    } else {
+        OUTPUT_CHANNEL_FIRST_ECHO
+    }
+}
 
 /// Serial number of the simulated scanner (the telegram's serial field).
 pub const SIMULATED_SERIAL: u32 = 99_000_511;
@@ -37,15 +58,23 @@ pub const CLOCK_AT_RUN_START: (u16, u8, u8) = (2026, 1, 1);
 #[derive(Debug, Clone)]
 pub struct Lms511Telegrams {
     rate: ScanRate,
+    output_channel: u16,
     serial: u32,
     telegrams_sent: u32,
 }
 
 impl Lms511Telegrams {
-    /// A scanner streaming at `rate`.
+    /// A scanner streaming at `rate`, all five echoes enabled ([`OUTPUT_CHANNEL_ECHOES`]).
     pub fn new(rate: ScanRate) -> Self {
+        Self::with_output_channel(rate, OUTPUT_CHANNEL_ECHOES)
+    }
+
+    /// A scanner streaming at `rate` the echoes `output_channel` enables (`LMDscandatacfg`:
+    /// bit `n − 1` for echo `n`).
+    pub fn with_output_channel(rate: ScanRate, output_channel: u16) -> Self {
         Self {
             rate,
+            output_channel,
             serial: SIMULATED_SERIAL,
             telegrams_sent: 0,
         }
@@ -79,19 +108,32 @@ impl Lms511Telegrams {
             scan_frequency_1e2_hz: scan.layout.scan_frequency_1e2_hz,
             measurement_frequency_100hz: scan.layout.measurement_frequency_100hz,
         };
-        let dist1 = ChannelRepr {
-            name: *b"DIST1",
-            scale_factor: scan.scale_factor,
-            scale_offset: scan.scale_offset_mm,
-            start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
-            step_1e4_deg: scan.layout.step_1e4_deg,
-            values: scan.dist1.clone(),
-        };
+        let beams = scan.beams();
+        let distance = (0..MAX_ECHOES)
+            .filter(|k| self.output_channel & (1 << k) != 0)
+            .map(|k| ChannelRepr {
+                name: *b"DIST1",
+                scale_factor: scan.scale_factor,
+                scale_offset: scan.scale_offset_mm,
+                start_angle_1e4_deg: scan.layout.start_angle_1e4_deg,
+                step_1e4_deg: scan.layout.step_1e4_deg,
+                values: scan
+                    .echoes
+                    .get(k)
+                    .cloned()
+                    .unwrap_or_else(|| vec![0; beams]),
+            })
+            .enumerate()
+            .map(|(k, mut c)| {
+                c.name[4] = b'1' + k as u8;
+                c
+            })
+            .collect();
         ScanRepr {
             command_type: CommandType::Event,
             header,
             encoders: Vec::new(),
-            channels16: vec![dist1],
+            channels16: distance,
             channels8: Vec::new(),
             position: None,
             device_name: None,
@@ -165,7 +207,7 @@ mod tests {
     fn scan(t_s: f64, rate: ScanRate) -> LidarScan {
         LidarScan {
             t_s,
-            dist1: (0..rate.beam_count()).map(|i| (1000 + i) as u16).collect(),
+            echoes: vec![(0..rate.beam_count()).map(|i| (1000 + i) as u16).collect()],
             scale_factor: 1.0,
             scale_offset_mm: 0.0,
             layout: rate.layout(),
@@ -215,9 +257,12 @@ mod tests {
         let lag = o.time_of_transmission_us - o.time_since_startup_us;
         let real_lag = r.time_of_transmission_us - r.time_since_startup_us;
         assert!(lag.abs_diff(real_lag) < 100, "{lag} vs {real_lag}");
-        // 3553 bytes without RSSI1 would be 3553 − 21 − 1141 with it: DIST1 only here.
+        // The real scan (3553 bytes) carries DIST1 and RSSI1 (21 + 1141 bytes); these carry
+        // DIST1…DIST5 (21 + 2 · 1141 bytes each) and no RSSI.
         let bytes = ours.to_vec(Dialect::ColaB).unwrap();
-        assert_eq!(bytes.len(), 3553 - 21 - 1141);
+        assert_eq!(bytes.len(), 3553 - 21 - 1141 + 4 * (21 + 2 * 1141));
+        let names: Vec<&[u8]> = ours.channels16.iter().map(|c| &c.name[..]).collect();
+        assert_eq!(names, [b"DIST1", b"DIST2", b"DIST3", b"DIST4", b"DIST5"]);
     }
 
     #[test]
@@ -244,7 +289,11 @@ mod tests {
             });
             assert_eq!(decoded.len(), 3);
             for (k, (d, s)) in decoded.iter().zip(&scans).enumerate() {
-                assert_eq!(d.channels16[0].values, s.dist1);
+                assert_eq!(d.channels16[0].values, s.dist1());
+                assert_eq!(d.channels16.len(), 5);
+                assert!(d.channels16[1..]
+                    .iter()
+                    .all(|c| c.values.iter().all(|&v| v == 0)));
                 assert_eq!(d.channels16[0].step_1e4_deg as u32, rate.step_1e4_deg());
                 assert_eq!(d.header.device_status, if k == 0 { [1, 0] } else { [0, 0] });
                 assert_eq!(d.header.telegram_counter as usize, k + 1);

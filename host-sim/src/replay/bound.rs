@@ -30,6 +30,8 @@ pub struct ScanBound<'m> {
     map: &'m TunnelMap,
     matching: MatchConfig,
     sensor: SensorSetup,
+    /// Which echo of each beam is taken (the scenario's, as the localiser does).
+    echo: scan_input::EchoSelection,
     scan: Box<Scan>,
 }
 
@@ -41,6 +43,7 @@ impl<'m> ScanBound<'m> {
             map,
             matching: cfg.matching,
             sensor: cfg.sensor,
+            echo: scenario.localizer.echo.selection(),
             scan: Box::default(),
         }
     }
@@ -50,7 +53,7 @@ impl<'m> ScanBound<'m> {
     pub fn at(&mut self, scan: &LidarScan, truth: SimPose) -> Option<Matrix3<f64>> {
         scan_input::load_values(
             &scan.layout,
-            scan.dist1.iter().copied(),
+            scan.selected(self.echo),
             scan.scale_factor,
             scan.scale_offset_mm,
             &self.sensor,

@@ -241,7 +241,7 @@ mod tests {
     fn scan_at(t_s: f64) -> LidarScan {
         LidarScan {
             t_s,
-            dist1: Vec::new(),
+            echoes: Vec::new(),
             scale_factor: 1.0,
             scale_offset_mm: 0.0,
             layout: BeamLayout {

@@ -27,7 +27,7 @@ use crate::metrics::Sample;
 use crate::record::csv_table::CsvError;
 use crate::record::initial_pose::{self, InitialPose};
 use crate::record::{files, odometry_csv, truth_csv};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::{EchoChoice, Scenario, ScenarioError};
 use crate::session::EstimatorChoice;
 use crate::status::EstimatorStatus;
 use crate::vehicle::SimPose;
@@ -322,6 +322,9 @@ pub struct ReplayOptions {
     /// Compute each scan's Cramér–Rao bound at the true pose ([`bound`]; needs ground
     /// truth; about as costly as the localiser).
     pub bound: bool,
+    /// Which echo of each beam the localiser takes; `None`: the scenario's
+    /// (`localizer.echo`, the last by default).
+    pub echo: Option<EchoChoice>,
 }
 
 impl Default for ReplayOptions {
@@ -331,6 +334,7 @@ impl Default for ReplayOptions {
             keep_scans: true,
             estimates: None,
             bound: false,
+            echo: None,
         }
     }
 }
@@ -362,7 +366,10 @@ pub fn replay_with(
     options: &ReplayOptions,
 ) -> Result<Replay, ReplayError> {
     let wall = Instant::now();
-    let scenario = Scenario::from_file(&sources.scenario)?;
+    let mut scenario = Scenario::from_file(&sources.scenario)?;
+    if let Some(echo) = options.echo {
+        scenario.localizer.echo = echo;
+    }
     // The centre line alone (for the along/across split): no simulated world is built.
     let line = scenario.centerline()?;
     let map = read_map(&sources.map)?;
@@ -500,6 +507,7 @@ pub fn replay_with(
         initial_estimate: (initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad),
         wall_time_s: wall.elapsed().as_secs_f64(),
         raycast_time_s: 0.0,
+        echo_counts: crate::lidar::EchoCounts::default(),
     };
     warnings.extend(map_warning(&steps));
     let bound = if options.bound {

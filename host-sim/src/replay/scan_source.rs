@@ -1,5 +1,6 @@
 //! Scans of a recorded scanner stream, decoded through lidar-driver into the simulator's
-//! [`LidarScan`]: each telegram's own `DIST1` values, scale and beam layout
+//! [`LidarScan`]: each telegram's own distance channels (`DIST1`…`DIST5`, the echoes of
+//! each beam), scale and beam layout
 //! ([`scan_input::BeamLayout`]: start angle, step, exact step from the frequencies), so a
 //! scanner at any layout is replayed with its own beam angles, and a simulated run's
 //! telegrams give back exactly the scans the live run localised on. With their times.
@@ -22,11 +23,11 @@ use std::path::{Path, PathBuf};
 use lidar_driver::recording::{
     Direction, FrameReader, RecordingError, RecordingFormat, RecordingReader,
 };
-use lidar_driver::ScanData;
+use lidar_driver::{ChannelKind, ScanData};
 
 use scan_input::BeamLayout;
 
-use crate::lidar::LidarScan;
+use crate::lidar::{LidarScan, MAX_ECHOES};
 use crate::record::csv_table::{cell, CsvError, CsvTable};
 
 /// Where the scan times came from.
@@ -143,7 +144,10 @@ impl fmt::Display for ScanSourceError {
 
 impl std::error::Error for ScanSourceError {}
 
-/// A scan telegram's DIST1 channel as a [`LidarScan`] (time still 0), or why it cannot be.
+/// A scan telegram's distance channels (`DIST1`…`DIST5`) as a [`LidarScan`] (time still 0),
+/// or why they cannot be: `DIST1` is needed, the others must have its layout and scale.
+/// Echo `n` is kept at index `n − 1` (a channel not sent reads as no echo); the channels
+/// after the last one with an echo are left out.
 fn lidar_scan(scan: &ScanData<'_>) -> Result<LidarScan, String> {
     let dist = scan.dist1().ok_or(
         "no DIST1 channel (configure the scanner's output with LMDscandatacfg: first echo)",
@@ -156,9 +160,40 @@ fn lidar_scan(scan: &ScanData<'_>) -> Result<LidarScan, String> {
         ));
     }
     let h = dist.header;
+    let mut echoes = vec![Vec::new(); MAX_ECHOES];
+    for c in scan.channels16() {
+        let ChannelKind::Distance(n) = c.header.kind() else {
+            continue;
+        };
+        let same = (
+            c.header.scale_factor,
+            c.header.scale_offset,
+            c.header.start_angle_1e4_deg,
+        ) == (h.scale_factor, h.scale_offset, h.start_angle_1e4_deg)
+            && (c.header.step_1e4_deg, c.header.count) == (h.step_1e4_deg, h.count);
+        if !same {
+            return Err(format!(
+                "{}'s layout or scale differs from DIST1's: not echoes of the same beams",
+                c.name()
+            ));
+        }
+        if let Some(slot) = echoes.get_mut(usize::from(n) - 1) {
+            if slot.is_empty() {
+                *slot = c.values().collect();
+            }
+        }
+    }
+    let used = echoes
+        .iter()
+        .rposition(|e| e.iter().any(|&v| v != 0))
+        .map_or(1, |k| k + 1);
+    echoes.truncate(used);
+    for e in &mut echoes {
+        e.resize(dist.len(), 0);
+    }
     Ok(LidarScan {
         t_s: 0.0,
-        dist1: dist.values().collect(),
+        echoes,
         scale_factor: h.scale_factor,
         scale_offset_mm: h.scale_offset,
         layout: BeamLayout::of(&scan.header, &h),
@@ -500,9 +535,9 @@ mod tests {
         assert_eq!(json.scans.len(), 174);
         assert_eq!(raw.time_source, TimeSource::ScannerClock);
         assert_eq!(json.time_source, TimeSource::Capture);
-        assert_eq!(raw.scans[0].dist1[..3], [1305, 1299, 1307]);
+        assert_eq!(raw.scans[0].dist1()[..3], [1305, 1299, 1307]);
         for (a, b) in raw.scans.iter().zip(&json.scans) {
-            assert_eq!((&a.dist1, a.layout), (&b.dist1, b.layout));
+            assert_eq!((a.dist1(), a.layout), (b.dist1(), b.layout));
         }
         // 25 Hz on the scanner's clock.
         let dt = raw.scans[1].t_s - raw.scans[0].t_s;
@@ -524,5 +559,78 @@ mod tests {
             (l.start_angle_1e4_deg, l.step_1e4_deg, l.beams),
             (-450_000, 5000, 541)
         );
+    }
+
+    /// A two-echo scan (a cloud before the wall on some beams) as the recorder writes it.
+    fn dusty_scan() -> LidarScan {
+        let rate = crate::lidar::ScanRate::Hz25;
+        let beams = rate.beam_count();
+        let wall: Vec<u16> = (0..beams).map(|i| 3000 + i as u16).collect();
+        let cloud: Vec<u16> = (0..beams)
+            .map(|i| if i % 7 == 0 { 900 } else { 0 })
+            .collect();
+        // Where the cloud is, it is the first echo and the wall the second.
+        let first = wall
+            .iter()
+            .zip(&cloud)
+            .map(|(&w, &c)| if c > 0 { c } else { w });
+        let second = wall
+            .iter()
+            .zip(&cloud)
+            .map(|(&w, &c)| if c > 0 { w } else { 0 });
+        LidarScan {
+            t_s: 0.04,
+            echoes: vec![first.collect(), second.collect()],
+            scale_factor: 1.0,
+            scale_offset_mm: 0.0,
+            layout: rate.layout(),
+        }
+    }
+
+    fn decoded(repr: &lidar_driver::ScanRepr) -> Result<LidarScan, String> {
+        let bytes = repr.to_vec(lidar_driver::Dialect::ColaB).unwrap();
+        let frame = lidar_driver::Frame::new_checked(&bytes[..]).unwrap();
+        lidar_scan(&ScanData::new_checked(frame).unwrap())
+    }
+
+    #[test]
+    fn every_echo_channel_comes_back_in_its_place() {
+        let scan = dusty_scan();
+        let mut t =
+            crate::record::scanner_telegram::Lms511Telegrams::new(crate::lidar::ScanRate::Hz25);
+        let mut repr = t.next_repr(&scan);
+        assert_eq!(repr.channels16.len(), 5);
+        // DIST3…DIST5 are empty: left out, the two echoes kept in order.
+        let back = decoded(&repr).unwrap();
+        assert_eq!(back.echoes, scan.echoes);
+        // Channels in another order still land by their number; a missing DIST2 reads as
+        // no second echo.
+        repr.channels16.swap(0, 1);
+        assert_eq!(decoded(&repr).unwrap().echoes, scan.echoes);
+        repr.channels16.retain(|c| &c.name != b"DIST2");
+        let without = decoded(&repr).unwrap();
+        assert_eq!(without.echoes, vec![scan.echoes[0].clone()]);
+        // A clear-air scan keeps DIST1 alone.
+        let clear = LidarScan {
+            echoes: vec![scan.echoes[0].clone()],
+            ..scan.clone()
+        };
+        assert_eq!(decoded(&t.next_repr(&clear)).unwrap().echoes.len(), 1);
+    }
+
+    #[test]
+    fn an_echo_channel_of_other_beams_is_refused_by_name() {
+        let mut t =
+            crate::record::scanner_telegram::Lms511Telegrams::new(crate::lidar::ScanRate::Hz25);
+        let mut repr = t.next_repr(&dusty_scan());
+        repr.channels16[2].values.pop();
+        let e = decoded(&repr).unwrap_err();
+        assert!(e.contains("DIST3"), "{e}");
+        let mut repr = t.next_repr(&dusty_scan());
+        repr.channels16[1].scale_factor = 2.0;
+        assert!(decoded(&repr).unwrap_err().contains("DIST2"));
+        // Without DIST1 nothing is taken from the others.
+        repr.channels16.retain(|c| &c.name != b"DIST1");
+        assert!(decoded(&repr).unwrap_err().contains("DIST1"));
     }
 }

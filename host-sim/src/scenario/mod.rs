@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::landmarks::{LandmarkChoice, LandmarkChoiceError};
 use crate::lidar::LidarSpec;
+use crate::traffic::TrafficSpec;
 use crate::vehicle::odometry::OdometrySpec;
 use crate::vehicle::path_follower::DriveSpec;
 use crate::vehicle::skid_steer::SkidSteerSpec;
@@ -234,6 +235,40 @@ impl MatcherChoice {
     }
 }
 
+/// Which echo of each beam the localiser's scan input takes (scan-input's
+/// [`scan_input::EchoSelection`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EchoChoice {
+    /// The first echo (`DIST1`): dust in front of the wall is taken as the range.
+    First,
+    /// The last echo: the wall behind dust or spray (scan-input's default).
+    #[default]
+    Last,
+}
+
+impl EchoChoice {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EchoChoice::First => "first",
+            EchoChoice::Last => "last",
+        }
+    }
+
+    /// The scan input's selection.
+    pub fn selection(self) -> scan_input::EchoSelection {
+        match self {
+            EchoChoice::First => scan_input::EchoSelection::First,
+            EchoChoice::Last => scan_input::EchoSelection::Last,
+        }
+    }
+}
+
+fn is_default_echo(e: &EchoChoice) -> bool {
+    *e == EchoChoice::default()
+}
+
 /// The localiser section of a scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -260,6 +295,9 @@ pub struct LocalizerConfig {
     pub odometry_scale_drift_sd: f64,
     /// Distance over which `odometry_scale_drift_sd` holds, metres.
     pub odometry_scale_drift_length_m: f64,
+    /// Which echo of each beam the scan input takes (`first` or `last`).
+    #[serde(skip_serializing_if = "is_default_echo")]
+    pub echo: EchoChoice,
 }
 
 impl Default for LocalizerConfig {
@@ -279,6 +317,7 @@ impl Default for LocalizerConfig {
             odometry_scale_sd: decimal(odometry.scale_sd),
             odometry_scale_drift_sd: decimal(odometry.scale_drift_sd),
             odometry_scale_drift_length_m: decimal(odometry.scale_drift_length_m),
+            echo: EchoChoice::Last,
         }
     }
 }
@@ -313,6 +352,9 @@ pub struct Scenario {
     /// The localiser.
     #[serde(default)]
     pub localizer: LocalizerConfig,
+    /// People and vehicles moving through the tunnel (in the scans, not in the map).
+    #[serde(default, skip_serializing_if = "TrafficSpec::is_empty")]
+    pub traffic: TrafficSpec,
     /// Directory that relative paths in the file are relative to (not a key).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -654,6 +696,13 @@ impl Scenario {
             "lidar.max_range_m",
             "must lie in (0, 80] m",
         )?;
+        let problems = [d.dust.problem(), self.traffic.problem(self.tunnel.width_m)];
+        if let Some((key, reason)) = problems.into_iter().flatten().next() {
+            return Err(ScenarioError::Invalid {
+                key,
+                reason: reason.to_string(),
+            });
+        }
         let v = &self.vehicle;
         check(
             v.track_width_m > 0.1 && v.track_width_m.is_finite(),

@@ -68,6 +68,7 @@ pub fn named(name: &str) -> Result<Scenario, ScenarioError> {
             ..DriveSpec::default()
         },
         localizer: LocalizerConfig::default(),
+        traffic: crate::traffic::TrafficSpec::default(),
         base_dir: Default::default(),
     };
     match name {

@@ -40,6 +40,14 @@ pub struct Overrides {
     pub rate: Option<ScanRate>,
     /// Range noise σ, metres.
     pub range_noise_m: Option<f64>,
+    /// Share of the beams whose first echo is dust or spray (`lidar.dust.fraction`).
+    pub dust_fraction: Option<f64>,
+    /// People walking through the tunnel (`traffic.people`).
+    pub people: Option<u32>,
+    /// Vehicles driving through it (`traffic.vehicles`).
+    pub vehicles: Option<u32>,
+    /// Which echo of each beam the localiser takes (`localizer.echo`).
+    pub echo: Option<super::EchoChoice>,
 }
 
 impl Overrides {
@@ -101,6 +109,18 @@ impl Overrides {
         if let Some(n) = self.range_noise_m {
             s.lidar.range_noise_m = n;
         }
+        if let Some(f) = self.dust_fraction {
+            s.lidar.dust.fraction = f;
+        }
+        if let Some(n) = self.people {
+            s.traffic.people = n;
+        }
+        if let Some(n) = self.vehicles {
+            s.traffic.vehicles = n;
+        }
+        if let Some(e) = self.echo {
+            s.localizer.echo = e;
+        }
         s.validate()
     }
 }
@@ -139,5 +159,34 @@ mod tests {
         };
         let e = bad.apply(&mut named("paper-10m").unwrap()).unwrap_err();
         assert!(e.to_string().contains("landmarks.missing_fraction"), "{e}");
+        let bad = Overrides {
+            dust_fraction: Some(-0.1),
+            ..Overrides::default()
+        };
+        let e = bad.apply(&mut named("paper-10m").unwrap()).unwrap_err();
+        assert!(e.to_string().contains("lidar.dust.fraction"), "{e}");
+    }
+
+    #[test]
+    fn dust_and_traffic_flags_reach_the_scenario_and_its_file() {
+        let mut s = named("paper-10m").unwrap();
+        let o = Overrides {
+            dust_fraction: Some(0.2),
+            people: Some(3),
+            vehicles: Some(1),
+            ..Overrides::default()
+        };
+        o.apply(&mut s).unwrap();
+        assert_eq!(s.lidar.dust.fraction, 0.2);
+        assert_eq!((s.traffic.people, s.traffic.vehicles), (3, 1));
+        // The scenario file written beside a run reruns it with the same dust and traffic.
+        let again = Scenario::from_toml(&s.to_toml()).unwrap();
+        assert_eq!(again, s);
+        // A clear scenario's file has neither section.
+        let clear = named("paper-10m").unwrap().to_toml();
+        assert!(
+            !clear.contains("dust") && !clear.contains("traffic"),
+            "{clear}"
+        );
     }
 }

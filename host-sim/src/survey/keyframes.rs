@@ -93,7 +93,7 @@ pub fn run(
         }
         if scan_input::load_values(
             &lidar.layout,
-            lidar.dist1.iter().copied(),
+            lidar.selected(scenario.localizer.echo.selection()),
             lidar.scale_factor,
             lidar.scale_offset_mm,
             &config.sensor,

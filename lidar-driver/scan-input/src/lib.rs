@@ -15,7 +15,13 @@
 //!   the step the scanner really steps by. It is used when it rounds to the telegram's own
 //!   step (so a header that does not describe the channel is never trusted over it);
 //! - the channel's scale factor and offset (mm = raw · factor + offset; 2.0 in long-range
-//!   modes), a raw 0 as no echo and a raw `0xFFFF` as a saturated reading, not a range.
+//!   modes), a raw 0 as no echo and a raw `0xFFFF` as a saturated reading, not a range;
+//! - the **echo** of each beam ([`EchoSelection`]): a scanner set up for several echoes
+//!   (`LMDscandatacfg` output channel `0x1F`) sends echo `n` of every beam in channel `DISTn`,
+//!   in range order. Dust, spray or rain in front of the wall answers first; the last echo
+//!   is the wall behind it (what SICK's own last-echo filter, `FREchoFilter 2`, keeps). The
+//!   default takes the last echo; a telegram with `DIST1` alone gives the same scan either
+//!   way.
 //!
 //! `no_std`, no allocation, no panics: it runs on the controller.
 #![cfg_attr(not(test), no_std)]
@@ -32,9 +38,12 @@
 
 use core::fmt;
 
-use lidar_driver::scandata::ChannelHeader;
+use lidar_driver::scandata::{Channel, ChannelHeader};
 use lidar_driver::{ChannelKind, ScanData, ScanHeader};
 use loc_core::scan::{Scan, ScanGeometry, SensorSetup, LMS511_MAX_BEAMS};
+
+/// Most echoes per beam an LMS5xx reports (`DIST1`…`DIST5`).
+pub const MAX_ECHOES: usize = 5;
 
 /// Radians per 1/10000 degree.
 const RAD_PER_1E4_DEG: f64 = core::f64::consts::PI / 180.0 / 10_000.0;
@@ -114,6 +123,68 @@ impl BeamLayout {
     }
 }
 
+/// Which of a beam's echoes becomes its range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum EchoSelection {
+    /// The first echo (`DIST1`): the nearest thing the beam met, dust included.
+    First,
+    /// The last echo (the highest channel with an echo for the beam): the surface behind
+    /// any dust or spray, as SICK's last-echo filter gives it. Also behind glass or a
+    /// wire mesh, which a tunnel wall does not have.
+    #[default]
+    Last,
+}
+
+/// The beams of up to [`MAX_ECHOES`] distance channels read in step, one raw value per beam:
+/// the echo `selection` chooses (0 where the beam has none). A channel that ends early
+/// reads as no further echo; an absent one (`None`) as none at all.
+#[derive(Debug, Clone)]
+pub struct SelectedEchoes<I> {
+    channels: [Option<I>; MAX_ECHOES],
+    selection: EchoSelection,
+    left: usize,
+}
+
+impl<I: Iterator<Item = u16>> SelectedEchoes<I> {
+    /// `beams` values chosen by `selection` from `channels` (index `n − 1`: channel `DISTn`).
+    pub fn new(channels: [Option<I>; MAX_ECHOES], beams: usize, selection: EchoSelection) -> Self {
+        Self {
+            channels,
+            selection,
+            left: beams,
+        }
+    }
+}
+
+impl<I: Iterator<Item = u16>> Iterator for SelectedEchoes<I> {
+    type Item = u16;
+
+    fn next(&mut self) -> Option<u16> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let mut chosen = 0u16;
+        for (k, channel) in self.channels.iter_mut().enumerate() {
+            // Every channel steps on, whichever echo is kept.
+            let value = channel.as_mut().and_then(Iterator::next).unwrap_or(0);
+            chosen = match self.selection {
+                EchoSelection::First if k == 0 => value,
+                EchoSelection::Last if value != 0 => value,
+                _ => chosen,
+            };
+        }
+        Some(chosen)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.left, Some(self.left))
+    }
+}
+
+impl<I: Iterator<Item = u16>> ExactSizeIterator for SelectedEchoes<I> {}
+
 /// Why a scan telegram could not be used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -128,6 +199,12 @@ pub enum ScanInputError {
         /// Beams in the telegram.
         beams: u16,
     },
+    /// A further echo channel (`DIST2`…`DIST5`) does not describe the beams of `DIST1`
+    /// (another start angle, step, beam count or scale): not the echoes of the same beams.
+    EchoChannelMismatch {
+        /// The channel's echo number (2…5).
+        echo: u8,
+    },
 }
 
 impl fmt::Display for ScanInputError {
@@ -140,34 +217,77 @@ impl fmt::Display for ScanInputError {
                 f,
                 "scan telegram with {beams} beams, at most {LMS511_MAX_BEAMS}: configure the scanner for 0.1667° over 190° or coarser"
             ),
+            ScanInputError::EchoChannelMismatch { echo } => write!(
+                f,
+                "scan telegram whose DIST{echo} has another layout or scale than DIST1: not the echoes of the same beams"
+            ),
         }
     }
 }
 
-/// Fills `scan` from `telegram`'s `DIST1` channel: its own beam layout (exact step where the
-/// telegram allows), its scale, and `sensor`'s mounting and range limits. Returns the
-/// layout used.
+/// Fills `scan` from `telegram`'s distance channels: per beam the echo `selection` chooses
+/// among `DIST1`…`DIST5` (those the telegram carries), `DIST1`'s beam layout (exact step
+/// where the telegram allows) and scale, and `sensor`'s mounting and range limits. Returns
+/// the layout used. Allocation-free; with `DIST1` alone (or [`EchoSelection::First`]) the
+/// values are read straight from it.
 pub fn load_scan(
     telegram: &ScanData<'_>,
     sensor: &SensorSetup,
+    selection: EchoSelection,
     scan: &mut Scan,
 ) -> Result<BeamLayout, ScanInputError> {
-    let channel = telegram
-        .channels16()
-        .iter()
-        .find(|c| c.header.kind() == ChannelKind::Distance(1))
-        .ok_or(ScanInputError::NoDistanceChannel)?;
-    let h = channel.header;
+    let mut echoes: [Option<Channel<'_>>; MAX_ECHOES] = [None; MAX_ECHOES];
+    for channel in telegram.channels16().iter() {
+        if let ChannelKind::Distance(n) = channel.header.kind() {
+            // A repeated channel counts once: the first of its name.
+            if let Some(slot @ None) = echoes.get_mut(usize::from(n).wrapping_sub(1)) {
+                *slot = Some(channel);
+            }
+        }
+    }
+    let [first, ..] = echoes;
+    let dist1 = first.ok_or(ScanInputError::NoDistanceChannel)?;
+    let h = dist1.header;
+    for (n, channel) in (1u8..).zip(echoes.iter()) {
+        if channel.is_some_and(|c| !same_beams(&c.header, &h)) {
+            return Err(ScanInputError::EchoChannelMismatch { echo: n });
+        }
+    }
     let layout = BeamLayout::of(&telegram.header, &h);
-    load_values(
-        &layout,
-        channel.values(),
-        h.scale_factor,
-        h.scale_offset,
-        sensor,
-        scan,
-    )?;
+    let further = echoes.iter().skip(1).any(Option::is_some);
+    if selection == EchoSelection::First || !further {
+        load_values(
+            &layout,
+            dist1.values(),
+            h.scale_factor,
+            h.scale_offset,
+            sensor,
+            scan,
+        )?;
+    } else {
+        let values = SelectedEchoes::new(
+            echoes.map(|c| c.map(|c| c.values())),
+            dist1.len(),
+            selection,
+        );
+        load_values(
+            &layout,
+            values,
+            h.scale_factor,
+            h.scale_offset,
+            sensor,
+            scan,
+        )?;
+    }
     Ok(layout)
+}
+
+/// Whether two channels describe the same beams at the same scale.
+fn same_beams(a: &ChannelHeader, b: &ChannelHeader) -> bool {
+    (a.start_angle_1e4_deg, a.step_1e4_deg, a.count)
+        == (b.start_angle_1e4_deg, b.step_1e4_deg, b.count)
+        && a.scale_factor.to_bits() == b.scale_factor.to_bits()
+        && a.scale_offset.to_bits() == b.scale_offset.to_bits()
 }
 
 /// Fills `scan` from raw distance values laid out as `layout` (what [`load_scan`] does once

@@ -380,8 +380,13 @@ fn scans_strip(scan: &mut Scan) -> TestResult {
     let config = LocalizerConfig::default();
     let mut labels = [PointLabel::Outlier; LMS511_MAX_BEAMS];
     for k in 0..SCAN_COUNT {
-        scan_input::load_scan(&telegram(k)?, &config.sensor, scan)
-            .map_err(|_| "scan-input refused a recorded telegram")?;
+        scan_input::load_scan(
+            &telegram(k)?,
+            &config.sensor,
+            firmware::controller::ECHO_SELECTION,
+            scan,
+        )
+        .map_err(|_| "scan-input refused a recorded telegram")?;
         check(
             scan.len() > 1000,
             "fewer than 1000 valid beams in a recorded scan",
@@ -404,8 +409,13 @@ fn scans_strip(scan: &mut Scan) -> TestResult {
 fn telegram_scans_use_the_exact_step(scan: &mut Scan) -> TestResult {
     let sensor = LocalizerConfig::default().sensor;
     for k in 0..SCAN_COUNT {
-        let layout = scan_input::load_scan(&telegram(k)?, &sensor, scan)
-            .map_err(|_| "scan-input refused a recorded telegram")?;
+        let layout = scan_input::load_scan(
+            &telegram(k)?,
+            &sensor,
+            firmware::controller::ECHO_SELECTION,
+            scan,
+        )
+        .map_err(|_| "scan-input refused a recorded telegram")?;
         check(
             usize::from(layout.beams) == BEAMS_PER_SCAN,
             "telegram without 1141 beams",
