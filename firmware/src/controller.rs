@@ -56,11 +56,22 @@ use controller_wire::{MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX
 pub const SESSION_BUFFER_BYTES: usize = 12 * 1024;
 
 /// Which echo of each beam the controller localises on: the last (the wall behind dust or
-/// spray). The session configures the scanner's first echo only (`SessionConfig`'s default
-/// `LMDscandatacfg`, `DIST1`), for which every selection gives the same scan; a scanner
-/// set up for more echoes (output channel `0x1F`, remission off: 11.6 kB per CoLa-B scan,
-/// within [`SESSION_BUFFER_BYTES`]; not in CoLa-A) has its last echo taken.
+/// spray). The session asks the scanner for it ([`session_config`]: `FREchoFilter` 2, the
+/// last echo in `DIST1`, no more bytes than one echo); a scanner set up for more echoes
+/// instead (output channel `0x1F`, remission off: 11.6 kB per CoLa-B scan, within
+/// [`SESSION_BUFFER_BYTES`]; not in CoLa-A) has its last echo taken here.
 pub const ECHO_SELECTION: EchoSelection = EchoSelection::Last;
+
+/// The scanner session the controller runs: lidar-driver's default start-up (CoLa-B, the
+/// capture's `LMDscandatacfg`: DIST1 and RSSI, time block) with the echo filter set to the
+/// last echo (`sWN FREchoFilter 2`): behind dust or spray the wall, not the cloud (a scanner
+/// that refuses it fails the start-up with its `sFA` code, named in the log).
+pub fn session_config() -> SessionConfig {
+    SessionConfig {
+        echo_filter: Some(lidar_driver::EchoFilter::Last),
+        ..SessionConfig::default()
+    }
+}
 
 /// The last bytes of the map flash region, where the start-pose record lives.
 pub const START_POSE_BLOCK_BYTES: usize = 4096;
@@ -427,7 +438,7 @@ pub fn run<B: Board>(
     session_buf: &mut [u8],
     options: &RunOptions,
 ) -> ! {
-    let mut session = Session::new(session_buf, SessionConfig::default());
+    let mut session = Session::new(session_buf, session_config());
     let mut odometry = OdometryInput::new();
     let mut scans = 0u32;
     // Whether the previous scan had odometry (`None` before the first scan): each change is

@@ -496,6 +496,9 @@ impl<'s> Connection<'s> {
         let mut scan = self.shared.next_scan()?;
         scan.command_type = kind;
         let mut st = self.shared.settings();
+        if st.echo_filter == EchoFilter::Last {
+            last_echo_only(&mut scan);
+        }
         let cfg = st.scan_data;
         let echo_on = |name: &[u8; 5]| {
             let n = name[4].wrapping_sub(b'0');
@@ -568,6 +571,77 @@ fn check_scan_config(
         (true, true) if !pair_ok => Err(E::Resolution),
         (true, true) if !area_ok => Err(E::Area),
         (true, true) => Ok(()),
+    }
+}
+
+/// `FREchoFilter` 2 (last echo): each beam's last echo in `DIST1` (and its remission in
+/// `RSSI1`), the further echo channels dropped — one echo per beam, whatever
+/// `LMDscandatacfg` enables. Echo `n` is channel `DISTn`; a beam's last echo is its last
+/// non-zero value (0 is no further echo).
+pub(crate) fn last_echo_only(scan: &mut ScanRepr) {
+    let echo = |name: &[u8; 5], kind: &[u8]| {
+        (&name[..4] == kind)
+            .then(|| name[4].wrapping_sub(b'1'))
+            .filter(|n| *n < 5)
+    };
+    let Some(first) = scan
+        .channels16
+        .iter()
+        .position(|c| echo(&c.name, b"DIST") == Some(0))
+    else {
+        return;
+    };
+    let beams = scan.channels16[first].values.len();
+    // Per beam, the index of the channel holding its last echo (DIST channels of other
+    // lengths are left alone: not the same beams).
+    let mut last = vec![first; beams];
+    for (k, c) in scan.channels16.iter().enumerate() {
+        if echo(&c.name, b"DIST").is_some_and(|n| n > 0) && c.values.len() == beams {
+            for (l, v) in last.iter_mut().zip(&c.values) {
+                if *v != 0 {
+                    *l = k;
+                }
+            }
+        }
+    }
+    let dist1: Vec<u16> = last
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| scan.channels16[k].values[i])
+        .collect();
+    // The remission channel of the same echo, 8- or 16-bit like the scanner's.
+    let rssi = |channels: &[lidar_driver::ChannelRepr]| -> Option<Vec<u16>> {
+        let of = |n: u8| {
+            channels
+                .iter()
+                .find(|c| echo(&c.name, b"RSSI") == Some(n) && c.values.len() == beams)
+        };
+        of(0)?;
+        Some(
+            last.iter()
+                .enumerate()
+                .map(|(i, &k)| {
+                    let n = echo(&scan.channels16[k].name, b"DIST").unwrap_or(0);
+                    of(n).or_else(|| of(0)).map_or(0, |c| c.values[i])
+                })
+                .collect(),
+        )
+    };
+    let (rssi16, rssi8) = (rssi(&scan.channels16), rssi(&scan.channels8));
+    scan.channels16[first].values = dist1;
+    for (channels, values) in [(&mut scan.channels16, rssi16), (&mut scan.channels8, rssi8)] {
+        if let Some(v) = values {
+            if let Some(c) = channels
+                .iter_mut()
+                .find(|c| echo(&c.name, b"RSSI") == Some(0))
+            {
+                c.values = v;
+            }
+        }
+        channels.retain(|c| {
+            !matches!(echo(&c.name, b"DIST"), Some(1..))
+                && !matches!(echo(&c.name, b"RSSI"), Some(1..))
+        });
     }
 }
 

@@ -442,9 +442,14 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
             let mut d = s.channels16[0].clone();
             d.name = *b"DIST0";
             d.name[4] = n;
+            // DIST2 1 m behind DIST1, DIST3 2 m behind it, except on beam 1: no third echo.
+            let behind = 1000 * u16::from(n - b'1');
             d.values
                 .iter_mut()
-                .for_each(|v| *v = v.saturating_add(1000));
+                .for_each(|v| *v = v.saturating_add(behind));
+            if n == b'3' {
+                d.values[1] = 0;
+            }
             s.channels16.push(d);
             let mut r = s.channels8[0].clone();
             r.name = *b"RSSI0";
@@ -454,10 +459,11 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
         Some(s)
     };
     let emu = Emulator::start(EmulatorConfig::default(), source).unwrap();
-    let names = |mask: u16| {
+    let with_filter = |mask: u16, filter: Option<lidar_driver::EchoFilter>| {
         let mut link = link_to(&emu);
         let mut cfg = fast_config();
         cfg.scan_data.output_channel = mask;
+        cfg.echo_filter = filter;
         let mut session = Session::new(vec![0u8; 16 * 1024], cfg);
         let clock = StdClock::new();
         let t0 = Instant::now();
@@ -466,9 +472,14 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
             if let Event::Scan(s) = session.poll(&mut link, &clock) {
                 let v: Vec<String> = s.channels().map(|c| c.name().to_string()).collect();
                 let d2 = s.channel("DIST2").map(|c| c.get(0));
-                return (v, d2);
+                let d1 = s.channel("DIST1").map(|c| [c.get(0), c.get(1)]);
+                return (v, d2, d1);
             }
         }
+    };
+    let names = |mask: u16| {
+        let (v, d2, _) = with_filter(mask, None);
+        (v, d2)
     };
     let (all, d2) = names(0x1F);
     assert_eq!(all, ["DIST1", "DIST2", "DIST3", "RSSI1", "RSSI2", "RSSI3"]);
@@ -478,6 +489,20 @@ fn multi_echo_channels_from_a_caller_source_follow_the_echo_mask() {
     assert_eq!(first_two, ["DIST1", "DIST2", "RSSI1", "RSSI2"]);
     let (first, _) = names(0x01);
     assert_eq!(first, ["DIST1", "RSSI1"]);
+    // FREchoFilter 2: the last echo of each beam in DIST1 alone, whatever the mask.
+    let d1_1 = lms511_source().scans()[0].channels16[0].values[1];
+    for mask in [0x01, 0x1F] {
+        let (last, _, dist1) = with_filter(mask, Some(lidar_driver::EchoFilter::Last));
+        assert_eq!(last, ["DIST1", "RSSI1"], "mask {mask:#x}");
+        assert_eq!(
+            dist1,
+            Some([
+                Some(d1.saturating_add(2000)),
+                Some(d1_1.saturating_add(1000))
+            ]),
+            "mask {mask:#x}"
+        );
+    }
 }
 
 #[test]
