@@ -47,8 +47,12 @@ use static_cell::ConstStaticCell;
 use crate::board::{Board, ExitStatus};
 use crate::flash_map::{FlashMap, MAP};
 use crate::odometry::{OdometryInput, ODOMETRY_STALE_MS};
+use crate::resume::{BridgeRefusal, Bridged};
+use crate::retained::LastScan;
 use crate::stage_costs::{ScanStage, StageTimer};
-use controller_wire::{MotionSource, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES};
+use controller_wire::{
+    MotionSource, OdometryFrame, PoseAvailability, PoseFrame, PoseStatus, MAX_FRAME_BYTES,
+};
 
 /// Receive buffer of the LMS session, bytes: one LMS511 scan in either dialect (1141 beams:
 /// DIST1 and RSSI ≈ 8.2 kB in CoLa-A; DIST1…DIST5 without RSSI 11.6 kB in CoLa-B). 12 KiB,
@@ -204,6 +208,21 @@ impl<'m> Controller<'m> {
         self.motion = OdometryIncrement::default();
         self.last_pose = None;
         self.motion_source = MotionSource::None;
+    }
+
+    /// After a reset: starts again from `last` (the last tracked scan before it) carried
+    /// over the outage to the vehicle's odometry reading `now` ([`crate::resume::bridge`]).
+    /// The start is at `now`'s scan: predict that scan with no motion. On refusal the
+    /// controller is left as it was.
+    pub fn resume(
+        &mut self,
+        last: &LastScan,
+        now: &OdometryFrame,
+    ) -> Result<Bridged, BridgeRefusal> {
+        let bridged = crate::resume::bridge(last, now, &self.localizer.config().odometry)?;
+        self.start(&bridged.start)
+            .map_err(|_| BridgeRefusal::StartRejected)?;
+        Ok(bridged)
     }
 
     /// The localizer (status, pose, last strip and match).
@@ -402,13 +421,16 @@ pub fn quiet_scanner<B: Board>(board: &mut B) {
 }
 
 /// How [`run`] runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunOptions {
     /// Stop with success after this many scans (test runs); `None`: run for ever.
     pub scan_limit: Option<u32>,
     /// Resets while running before this start (`retained::boot`): poses are marked
     /// `after_reset` until the controller tracks again.
     pub resets: u32,
+    /// After a reset: the last tracked scan before it (`retained::boot`), carried over the
+    /// outage by the odometry at the first scan ([`Controller::resume`]).
+    pub resume: Option<LastScan>,
     /// No scan for this long makes the controller send [`PoseStatus::Stale`] frames (the
     /// last pose), one per this period, milliseconds.
     pub stale_after_ms: u64,
@@ -425,6 +447,7 @@ pub struct RunOptions {
 pub const DEFAULT_RUN: RunOptions = RunOptions {
     scan_limit: None,
     resets: 0,
+    resume: None,
     stale_after_ms: 500,
     watchdog_ms: 1000,
     stall_after_scans: None,
@@ -440,6 +463,10 @@ pub fn run<B: Board>(
 ) -> ! {
     let mut session = Session::new(session_buf, session_config());
     let mut odometry = OdometryInput::new();
+    let mut resume = options.resume;
+    if let Some(reading) = resume.and_then(|last| last.odometry) {
+        odometry.resume_from(reading);
+    }
     let mut scans = 0u32;
     // Whether the previous scan had odometry (`None` before the first scan): each change is
     // logged once.
@@ -470,11 +497,14 @@ pub fn run<B: Board>(
         let Some(telegram) = telegram else {
             if now_ms >= next_stale_ms {
                 next_stale_ms = now_ms + options.stale_after_ms;
-                send_stale(board, &mut last_frame, now_ms - last_scan_ms);
+                send_stale(board, &mut last_frame, now_ms - last_scan_ms, after_reset);
             }
             continue;
         };
-        let increment = odometry.increment_for_scan(now_ms);
+        let mut increment = odometry.increment_for_scan(now_ms);
+        if let Some(last) = resume.take() {
+            increment = resume_after_reset(controller, &last, odometry.at_last_scan());
+        }
         if had_odometry != Some(increment.is_some()) {
             had_odometry = Some(increment.is_some());
             log_odometry_change(increment.is_some(), &odometry);
@@ -510,8 +540,13 @@ pub fn run<B: Board>(
         if frame.status == PoseStatus::OdometryOnly {
             defmt::info!("  scan not used: {}", controller.localizer().status());
         }
-        if let Some(pose) = controller.localizer().pose() {
-            crate::retained::store_pose(options.resets, &pose);
+        // What a reset would start from: only a tracked pose is worth carrying over.
+        if frame.status == PoseStatus::Tracking {
+            let localizer = controller.localizer();
+            if let (Some(pose), Some(c)) = (localizer.pose(), localizer.covariance()) {
+                let last = LastScan::new(pose, &c, odometry.at_last_scan());
+                crate::retained::store_scan(options.resets, &last);
+            }
         }
         send(board, &frame);
         last_frame = Some(frame);
@@ -531,10 +566,57 @@ pub fn run<B: Board>(
     }
 }
 
-/// Sends the last pose as [`PoseStatus::Stale`] (`silent_ms` without a scan); logs the
-/// first of a run of them.
-fn send_stale<B: Board>(board: &mut B, last: &mut Option<PoseFrame>, silent_ms: u64) {
+/// The first scan after a reset: restarts the controller from `last` carried over the
+/// outage to `now` (the odometry reading at this scan) when it can, and returns the motion
+/// to predict this scan with (none after a carried start: it is at this scan; no odometry
+/// when the start was not carried — the increment from the kept reading would span the
+/// outage, or the sender's restart).
+fn resume_after_reset(
+    controller: &mut Controller<'_>,
+    last: &LastScan,
+    now: Option<OdometryFrame>,
+) -> Option<OdometryIncrement> {
+    let Some(now) = now else {
+        defmt::warn!(
+            "no fresh odometry at the first scan after the reset: starting from the last pose before it"
+        );
+        return None;
+    };
+    match controller.resume(last, &now) {
+        Ok(b) => {
+            defmt::warn!(
+                "outage bridged by odometry: {=f32} m in {=f32} s; start at ({=f32}, {=f32}, {=f32}) with sigma {=f32} m, {=f32} rad",
+                b.distance_m,
+                b.outage_s,
+                b.start.pose.x_m,
+                b.start.pose.y_m,
+                b.start.pose.theta_rad,
+                b.start.sigma_xy_m,
+                b.start.sigma_theta_rad
+            );
+            Some(OdometryIncrement::default())
+        }
+        Err(e) => {
+            defmt::warn!(
+                "outage not bridged ({}): starting from the last pose before the reset",
+                e
+            );
+            None
+        }
+    }
+}
+
+/// Sends the last pose as [`PoseStatus::Stale`] (`silent_ms` without a scan), marked
+/// `after_reset` while the controller has not tracked since a reset (so the vehicle side
+/// sees a restart even before the first scan after it); logs the first of a run of them.
+fn send_stale<B: Board>(
+    board: &mut B,
+    last: &mut Option<PoseFrame>,
+    silent_ms: u64,
+    after_reset: bool,
+) {
     let mut frame = last.unwrap_or(PoseFrame::no_map(0));
+    frame.after_reset = after_reset;
     if frame.status != PoseStatus::Stale {
         defmt::warn!(
             "no scan for {=u64} ms: the pose is stale (check the scanner and its link)",

@@ -13,7 +13,10 @@
 //!   beside this one, shared with the host tools;
 //! - [`fault`]: panic and HardFault handlers;
 //! - [`ram`]: static RAM and the stack's high-water mark (painted stack);
-//! - [`retained`]: what survives a reset (that the controller was running, its last pose).
+//! - [`retained`]: what survives a reset (that the controller was running, its last tracked
+//!   scan: pose, uncertainty, odometry reading).
+//! - [`resume`]: the start after a reset, the last tracked pose carried over the outage by
+//!   the vehicle's odometry.
 //!
 //! The benchmark, the on-target self-tests and the recorded fixtures they replay are the
 //! `firmware-testbench` crate beside this one; nothing here reaches them.
@@ -26,6 +29,7 @@ pub mod fault;
 pub mod flash_map;
 pub mod odometry;
 pub mod ram;
+pub mod resume;
 pub mod retained;
 pub mod stage_costs;
 

@@ -50,7 +50,8 @@ impl Default for OdometryInput {
     }
 }
 
-fn pose(f: &OdometryFrame) -> Pose2 {
+/// The cumulative odometry pose a frame carries (odometry frame).
+pub(crate) fn pose(f: &OdometryFrame) -> Pose2 {
     Pose2::new(f.x_m, f.y_m, f.theta_rad)
 }
 
@@ -126,6 +127,17 @@ impl OdometryInput {
             &pose(&previous?),
             &pose(&fresh?),
         ))
+    }
+
+    /// The reading the last scan was predicted to (`None`: it had no fresh odometry).
+    pub fn at_last_scan(&self) -> Option<OdometryFrame> {
+        self.at_last_scan
+    }
+
+    /// After a reset: takes `reading` (kept across the reset with the last tracked scan) as
+    /// the previous scan's, so that the first scan's increment spans the outage.
+    pub fn resume_from(&mut self, reading: OdometryFrame) {
+        self.at_last_scan = Some(reading);
     }
 
     /// What arrived so far.

@@ -307,6 +307,11 @@ struct HilArgs {
     /// is then not instructions, and `instructions_per_scan_*` are left out.
     #[arg(long)]
     no_icount: bool,
+    /// When the controller restarts (a watchdog reset), the vehicle drives on for this many
+    /// seconds before the controller takes scans again (watchdog time-out, boot, scanner
+    /// start-up); those scans are lost.
+    #[arg(long, default_value_t = 1.5)]
+    restart_outage_s: f64,
     /// Print the metrics as one JSON object (run's keys) instead of the report.
     #[arg(long)]
     json: bool,
@@ -926,6 +931,7 @@ fn cmd_hil(a: &HilArgs) -> Result<(), String> {
         },
         timeout: Duration::from_secs_f64(a.timeout_s.max(1.0)),
         icount: !a.no_icount,
+        restart_outage_s: a.restart_outage_s,
     };
     let r = host_sim::hil::run(&s, &options, &dir).map_err(|e| e.to_string());
     if remove {
@@ -957,6 +963,9 @@ fn cmd_hil(a: &HilArgs) -> Result<(), String> {
                 .collect();
             o.insert("instructions_per_stage".into(), stages.into());
         }
+        if let Some(o) = j.as_object_mut() {
+            o.insert("restarts".into(), serde_json::json!(r.restarts));
+        }
         out(&j.to_string())?;
     } else {
         if !a.no_icount {
@@ -985,6 +994,18 @@ host-sim run of the same drive: position RMS {:.2} mm, heading RMS {:.3} mrad, m
             run_m.localizer.heading_rms_rad * 1e3,
             run_m.localizer.max_position_error_m * 1e3,
         ))?;
+        for restart in &r.restarts {
+            out(&format!(
+                "controller restarted at scan {}: {} scans lost to the outage; tracking again {}",
+                restart.first_lost_scan,
+                restart.lost_scans,
+                restart
+                    .scans_to_tracking
+                    .map_or("not within the run".into(), |n| {
+                        format!("within {n} scans after the outage")
+                    })
+            ))?;
+        }
     }
     Ok(())
 }
@@ -1041,6 +1062,7 @@ fn cmd_replay(a: &ReplayArgs) -> Result<(), String> {
         estimates: a.estimates.clone(),
         bound: a.bound,
         echo: a.echo.map(EchoArg::choice),
+        allow_missing_estimates: false,
     };
     if a.bound && src.ground_truth.is_none() {
         return Err("--bound needs ground truth (ground_truth.csv or --truth)".into());

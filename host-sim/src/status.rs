@@ -20,6 +20,9 @@ pub enum EstimatorStatus {
     Odometry,
     /// Another localiser's pose, read from its estimates file (`replay --estimates`).
     External,
+    /// No pose for this scan in that file (a controller restarting after a reset sent
+    /// none): the scan is not scored.
+    NoEstimate,
 }
 
 impl EstimatorStatus {
@@ -53,6 +56,7 @@ impl EstimatorStatus {
             EstimatorStatus::ScanUnusable(_) => "scan-unusable",
             EstimatorStatus::Odometry => "odometry",
             EstimatorStatus::External => "external",
+            EstimatorStatus::NoEstimate => "no-estimate",
         }
     }
 

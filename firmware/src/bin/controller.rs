@@ -12,7 +12,6 @@ use firmware::board::{Board, ExitStatus, SelectedBoard};
 use firmware::controller::{
     self, Controller, RunOptions, StartSource, DEFAULT_RUN, SESSION_BUFFER_BYTES,
 };
-use loc_core::geometry::Pose2;
 use loc_core::localizer::StartPose;
 
 /// Scans after which a test build stops (`FW_CONTROLLER_SCANS` at build time).
@@ -76,14 +75,16 @@ fn main() -> ! {
             boot.resets
         );
         // Where the vehicle last was beats the start-pose record: it has not gone far.
-        if let Some((x, y, theta)) = boot.last_pose {
+        if let Some(last) = boot.last {
             start = Some(StartPose {
-                pose: Pose2::new(x, y, theta),
+                pose: last.pose,
                 sigma_xy_m: controller::DEFAULT_START_SIGMA[0],
                 sigma_theta_rad: controller::DEFAULT_START_SIGMA[1],
             });
             source = StartSource::LastPoseBeforeReset;
-            defmt::warn!("  starting from the last pose before the reset");
+            defmt::warn!(
+                "  starting from the last tracked pose before the reset (carried over the outage by the odometry at the first scan)"
+            );
         }
         controller::quiet_scanner(&mut board);
     }
@@ -120,6 +121,7 @@ fn main() -> ! {
     let options = RunOptions {
         scan_limit: SCAN_LIMIT,
         resets: boot.resets,
+        resume: boot.last.filter(|_| boot.resets > 0),
         stall_after_scans: STALL_AFTER_SCANS,
         ..DEFAULT_RUN
     };

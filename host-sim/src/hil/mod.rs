@@ -50,6 +50,11 @@ pub struct HilOptions {
     /// Run QEMU with `-icount shift=0` (one virtual nanosecond per instruction), so the
     /// firmware's counter counts instructions.
     pub icount: bool,
+    /// When the controller restarts (a watchdog reset), the vehicle drives on for this long,
+    /// seconds of the drive, before the controller takes scans again (the watchdog's
+    /// timeout, the boot and the scanner's start-up): those scans are lost too. The
+    /// simulation otherwise waits for the controller.
+    pub restart_outage_s: f64,
 }
 
 /// Why a HIL run failed.
@@ -106,8 +111,10 @@ pub struct HilResult {
     pub run: crate::closed_loop::RunLog,
     /// The recording the firmware was fed.
     pub recording: PathBuf,
-    /// Pose frames per status, in scan order.
+    /// Pose frames per status, in scan order (scans lost to a restart left out).
     pub statuses: Vec<controller_wire::PoseStatus>,
+    /// Each restart of the controller (a watchdog reset) in the run, in scan order.
+    pub restarts: Vec<Restart>,
     /// Scans predicted with the vehicle's odometry (the rest with constant velocity).
     pub with_odometry: usize,
     /// The firmware's work on each scan (its `PoseFrame::work`): instructions with
@@ -144,6 +151,51 @@ impl HilResult {
     }
 }
 
+/// One restart of the controller during a HIL run, as the vehicle port saw it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Restart {
+    /// The scan the controller was sent when it restarted (it answered with stale frames
+    /// marked `after_reset`): the first scan lost.
+    pub first_lost_scan: usize,
+    /// Scans lost: that one and those of the outage after it (`HilOptions::restart_outage_s`).
+    pub lost_scans: usize,
+    /// Scans answered after the outage up to and including the first pose reported
+    /// tracking (`None`: not tracking again within the run).
+    pub scans_to_tracking: Option<usize>,
+}
+
+impl Restart {
+    /// The restarts in `poses` (one entry per scan, `None` for a scan lost to a restart).
+    fn find(poses: &[Option<controller_wire::PoseFrame>]) -> Vec<Self> {
+        let mut restarts: Vec<Self> = Vec::new();
+        let mut k = 0;
+        while k < poses.len() {
+            if poses[k].is_some() {
+                k += 1;
+                continue;
+            }
+            let lost_scans = poses[k..].iter().take_while(|p| p.is_none()).count();
+            let after = k + lost_scans;
+            let scans_to_tracking = poses[after..]
+                .iter()
+                .map_while(|p| p.as_ref())
+                .position(|p| p.status == controller_wire::PoseStatus::Tracking)
+                .map(|n| n + 1);
+            restarts.push(Self {
+                first_lost_scan: k,
+                lost_scans,
+                scans_to_tracking,
+            });
+            k = after;
+        }
+        restarts
+    }
+}
+
+/// How long the emulator's scan source waits for the go of the next scan before it lets the
+/// emulator's connection thread go on (host time; the scan follows in the next period).
+const SOURCE_WAIT: Duration = Duration::from_millis(30);
+
 /// Default place of the controller ELF: the firmware workspace's release build.
 pub fn default_elf() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -179,11 +231,14 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         .to_vec();
     let times = vehicle_port::scan_times(&recording).map_err(|e| host(&e))?;
     let frames = vehicle_port::odometry_frames(&recording, &times).map_err(|e| host(&e))?;
-    let (go, wait) = mpsc::channel::<()>();
-    let mut pending = scans.into_iter();
+    let (go, wait) = mpsc::channel::<usize>();
+    // The emulator's connection thread asks for a scan each scan period while subscribed;
+    // it waits for the go a little, never for ever, so that it keeps answering requests (a
+    // controller restarting after a reset unsubscribes and sets the scanner up again while
+    // no go comes).
     let source = move || {
-        wait.recv().ok()?;
-        pending.next()
+        let k = wait.recv_timeout(SOURCE_WAIT).ok()?;
+        scans.get(k).cloned()
     };
     let emulator = Emulator::start(
         EmulatorConfig {
@@ -207,7 +262,9 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         &defmt_log,
     )?;
     // 4. Lock step.
-    let result = vehicle.run(&frames, &go, options.timeout);
+    let outage_scans =
+        (options.restart_outage_s.max(0.0) * scenario.lidar.rate.frequency_hz()).round() as usize;
+    let result = vehicle.run(&frames, &go, options.timeout, outage_scans);
     let _ = qemu.kill();
     let _ = qemu.wait();
     drop(go);
@@ -231,21 +288,25 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
         &ReplayOptions {
             keep_scans: false,
             estimates: Some(estimates),
+            // A scan lost to a restart has no pose: the vehicle kept the last one.
+            allow_missing_estimates: true,
             ..ReplayOptions::default()
         },
     )
     .map_err(|e| host(&e))?;
+    let answered: Vec<&controller_wire::PoseFrame> = poses.iter().flatten().collect();
     Ok(HilResult {
         replay,
         run: log,
         recording,
-        statuses: poses.iter().map(|p| p.status).collect(),
-        with_odometry: poses
+        statuses: answered.iter().map(|p| p.status).collect(),
+        restarts: Restart::find(&poses),
+        with_odometry: answered
             .iter()
             .filter(|p| p.motion == controller_wire::MotionSource::Odometry)
             .count(),
-        work: poses.iter().map(|p| p.work).collect(),
-        stage_work: poses.iter().map(|p| p.stage_work).collect(),
+        work: answered.iter().map(|p| p.work).collect(),
+        stage_work: answered.iter().map(|p| p.stage_work).collect(),
     })
 }
 
@@ -283,4 +344,50 @@ fn start_qemu(
         .stderr(Stdio::null())
         .spawn()
         .map_err(HilError::Qemu)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Restart;
+    use controller_wire::{PoseFrame, PoseStatus};
+
+    fn frame(status: PoseStatus) -> Option<PoseFrame> {
+        Some(PoseFrame {
+            status,
+            ..PoseFrame::no_map(0)
+        })
+    }
+
+    #[test]
+    fn restarts_are_runs_of_lost_scans_counted_to_the_next_tracking_pose() {
+        use PoseStatus::{MapUnconfirmed, Tracking};
+        let poses = [
+            frame(Tracking),
+            None,
+            None,
+            None,
+            frame(MapUnconfirmed),
+            frame(MapUnconfirmed),
+            frame(Tracking),
+            frame(Tracking),
+            None,
+            frame(MapUnconfirmed),
+        ];
+        assert_eq!(
+            Restart::find(&poses),
+            [
+                Restart {
+                    first_lost_scan: 1,
+                    lost_scans: 3,
+                    scans_to_tracking: Some(3),
+                },
+                Restart {
+                    first_lost_scan: 8,
+                    lost_scans: 1,
+                    scans_to_tracking: None,
+                },
+            ]
+        );
+        assert!(Restart::find(&[frame(Tracking), frame(Tracking)]).is_empty());
+    }
 }

@@ -80,30 +80,52 @@ impl VehiclePort {
 
     /// Waits for QEMU, then for each scan: sends its odometry frame, lets the scanner send
     /// the scan (`go`), and waits for the controller's pose frame (at most `timeout`).
+    ///
+    /// A controller that restarts instead (a watchdog reset: it then sends stale frames
+    /// marked `after_reset` while it sets the scanner up again) has lost the scan it was
+    /// sent, and the `outage_scans` after it while it comes back (the vehicle drives on):
+    /// their entries are `None`, and the lock step goes on with the next one. `go` tells the
+    /// scanner which scan to send.
     pub fn run(
         self,
         frames: &[OdometryFrame],
-        go: &Sender<()>,
+        go: &Sender<usize>,
         timeout: Duration,
-    ) -> Result<Vec<PoseFrame>, PortError> {
+        outage_scans: usize,
+    ) -> Result<Vec<Option<PoseFrame>>, PortError> {
         let mut stream = accept(&self.listener, timeout)?;
         stream
             .set_read_timeout(Some(RESEND_EVERY))
             .map_err(PortError::Io)?;
         let mut assembler: FrameAssembler<MAX_FRAME_BYTES> = FrameAssembler::new();
         let mut poses = Vec::with_capacity(frames.len());
-        for (k, frame) in frames.iter().enumerate() {
+        // A restart already answered for (its stale frames go on until it tracks again).
+        let mut restart_handled = false;
+        let mut k = 0;
+        while let Some(frame) = frames.get(k) {
             let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
             let bytes = frame
                 .encode(&mut buf)
                 .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
             stream.write_all(bytes).map_err(PortError::Io)?;
-            if go.send(()).is_err() {
+            if go.send(k).is_err() {
                 return Err(PortError::NoPose { scan: k });
             }
-            let pose = next_pose(&mut stream, &mut assembler, bytes, timeout)
-                .ok_or(PortError::NoPose { scan: k })?;
-            poses.push(pose);
+            match next_pose(&mut stream, &mut assembler, bytes, timeout, restart_handled) {
+                Some(Reply::Pose(pose)) => {
+                    restart_handled &= pose.after_reset;
+                    poses.push(Some(pose));
+                }
+                Some(Reply::Restarted) => {
+                    restart_handled = true;
+                    let lost = (outage_scans + 1).min(frames.len() - k);
+                    poses.extend(std::iter::repeat_n(None, lost));
+                    k += lost;
+                    continue;
+                }
+                None => return Err(PortError::NoPose { scan: k }),
+            }
+            k += 1;
         }
         Ok(poses)
     }
@@ -136,15 +158,26 @@ fn accept(listener: &TcpListener, timeout: Duration) -> Result<TcpStream, PortEr
 /// odometry, which it would then call stale.
 const RESEND_EVERY: Duration = Duration::from_millis(20);
 
+/// What the controller answered a scan with.
+enum Reply {
+    /// Its pose frame.
+    Pose(PoseFrame),
+    /// A stale frame marked `after_reset`: it restarted and waits for scans; the scan sent
+    /// is lost.
+    Restarted,
+}
+
 /// The next pose frame that answers a scan (stale and no-map frames, sent while waiting for
-/// scans, are skipped), or `None` after `timeout`; `odometry` (the scan's odometry frame) is
+/// scans, are skipped; a stale frame marked `after_reset` is [`Reply::Restarted`] unless
+/// `restart_handled`), or `None` after `timeout`; `odometry` (the scan's odometry frame) is
 /// sent again every [`RESEND_EVERY`] meanwhile.
 fn next_pose(
     stream: &mut TcpStream,
     assembler: &mut FrameAssembler<MAX_FRAME_BYTES>,
     odometry: &[u8],
     timeout: Duration,
-) -> Option<PoseFrame> {
+    restart_handled: bool,
+) -> Option<Reply> {
     let deadline = Instant::now() + timeout;
     // A byte at a time: whatever follows the pose frame stays in the socket for the next scan.
     let mut byte = [0u8; 1];
@@ -165,8 +198,12 @@ fn next_pose(
         };
         if let Assembled::Frame(f) = assembler.push(byte[0]) {
             if let Ok(pose) = PoseFrame::decode(f) {
-                if !matches!(pose.status, PoseStatus::Stale | PoseStatus::NoMap) {
-                    return Some(pose);
+                match pose.status {
+                    PoseStatus::Stale if pose.after_reset && !restart_handled => {
+                        return Some(Reply::Restarted)
+                    }
+                    PoseStatus::Stale | PoseStatus::NoMap => {}
+                    _ => return Some(Reply::Pose(pose)),
                 }
             }
         }
@@ -174,12 +211,21 @@ fn next_pose(
     None
 }
 
-/// Writes the poses as an estimates file `replay --estimates` scores: one row per scan at
-/// the scan's time (`times`, as [`scan_times`] read them).
-pub fn write_estimates(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
+/// Writes the poses as an estimates file `replay --estimates` scores: one row per answered
+/// scan at the scan's time (`times`, as [`scan_times`] read them; a scan lost to a restart
+/// has no row, and the replay counts it missing).
+pub fn write_estimates(
+    path: &Path,
+    times: &[f64],
+    poses: &[Option<PoseFrame>],
+) -> Result<(), String> {
     let mut text =
         String::from("t_s,est_x_m,est_y_m,est_theta_rad,sigma_x_m,sigma_y_m,sigma_theta_rad\n");
-    for (t_s, p) in times.iter().zip(poses) {
+    for (t_s, p) in times
+        .iter()
+        .zip(poses)
+        .filter_map(|(t, p)| p.as_ref().map(|p| (t, p)))
+    {
         let c = p.covariance_upper;
         text.push_str(&format!(
             "{t_s:.6},{:.6},{:.6},{:.7},{:.6},{:.6},{:.7}\n",
@@ -197,7 +243,7 @@ pub fn write_estimates(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Resul
 /// Writes every pose frame as the controller sent it, one row per scan: time, status, what
 /// the prediction rested on, whether after a reset, and the work on the scan, end to end and
 /// by stage (`work_scan` … `work_filter`).
-pub fn write_frames(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(), String> {
+pub fn write_frames(path: &Path, times: &[f64], poses: &[Option<PoseFrame>]) -> Result<(), String> {
     let mut text =
         String::from("scan,t_s,status,protection_m,availability,motion,after_reset,work");
     for name in controller_wire::STAGE_NAMES {
@@ -205,6 +251,14 @@ pub fn write_frames(path: &Path, times: &[f64], poses: &[PoseFrame]) -> Result<(
     }
     text.push('\n');
     for (k, (t_s, p)) in times.iter().zip(poses).enumerate() {
+        let Some(p) = p else {
+            text.push_str(&format!("{k},{t_s:.6},LostToReset,,,,,0"));
+            for _ in controller_wire::STAGE_NAMES {
+                text.push_str(",0");
+            }
+            text.push('\n');
+            continue;
+        };
         text.push_str(&format!(
             "{k},{t_s:.6},{:?},{:.4},{:?},{:?},{},{}",
             p.status, p.protection_m, p.availability, p.motion, p.after_reset, p.work

@@ -205,21 +205,23 @@ impl Estimator for ExternalEstimates {
             .get(self.next)
             .filter(|r| (r.t_s - scan.t_s).abs() <= TIME_TOLERANCE_S)
             .copied();
-        match found {
+        let status = match found {
             Some(r) => {
                 self.next += 1;
                 self.last = Some(r);
+                EstimatorStatus::External
             }
             None => {
                 self.missing += 1;
                 self.first_missing_t_s.get_or_insert(scan.t_s);
+                EstimatorStatus::NoEstimate
             }
-        }
+        };
         let r = self.last;
         EstimatorOutput {
             pose: r.map_or(SimPose::default(), |r| r.pose),
             sigma: r.map_or((f64::NAN, f64::NAN, f64::NAN), |r| r.sigma),
-            status: EstimatorStatus::External,
+            status,
             protection: None,
         }
     }

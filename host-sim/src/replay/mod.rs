@@ -325,6 +325,10 @@ pub struct ReplayOptions {
     /// Which echo of each beam the localiser takes; `None`: the scenario's
     /// (`localizer.echo`, the last by default).
     pub echo: Option<EchoChoice>,
+    /// With `estimates`: scans without a row (a controller that lost them to a restart sent
+    /// no pose) are left out of the scoring and counted in the warnings, instead of the file
+    /// being refused.
+    pub allow_missing_estimates: bool,
 }
 
 impl Default for ReplayOptions {
@@ -335,6 +339,7 @@ impl Default for ReplayOptions {
             estimates: None,
             bound: false,
             echo: None,
+            allow_missing_estimates: false,
         }
     }
 }
@@ -416,11 +421,15 @@ pub fn replay_with(
     let mut drive = |est: &mut dyn Estimator, stream: &mut ScanStream| {
         drive(est, initial, start, odometry, stream, keep, bounds.as_mut())
     };
+    let mut missing_estimates = None;
     let (steps, kept, name) = match (&options.estimates, choice) {
         (Some(path), _) => {
             let mut est = ExternalEstimates::read(path)?;
             let (steps, kept) = drive(&mut est, &mut stream)?;
-            est.check_complete()?;
+            match est.check_complete() {
+                Err(e) if options.allow_missing_estimates => missing_estimates = Some(e),
+                r => r?,
+            }
             (steps, kept, est.name())
         }
         (None, EstimatorChoice::OdometryOnly) => {
@@ -460,10 +469,17 @@ pub fn replay_with(
         ));
     }
     warnings.extend(coverage_warning(odometry, &steps));
-    let scored = match &truth {
+    warnings.extend(missing_estimates.map(|e| format!("{e} (those scans are not scored)")));
+    let mut scored = match &truth {
         Some(rows) => truth::samples(&steps, rows, &line, scenario.drive.start_m),
         None => Vec::new(),
     };
+    // A scan the estimates file gave no pose for is not scored (it had none).
+    scored.retain(|(i, _)| {
+        steps
+            .get(*i)
+            .is_some_and(|s| s.status != EstimatorStatus::NoEstimate)
+    });
     let statuses = scored
         .iter()
         .filter_map(|(i, _)| steps.get(*i).map(|x| x.status))

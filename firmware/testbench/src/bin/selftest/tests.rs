@@ -59,6 +59,10 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         "a_scan_without_a_new_odometry_frame_is_not_a_standstill",
         no_new_odometry_frame_is_no_increment,
     );
+    runner.run(
+        "an_outage_is_bridged_by_odometry_and_a_restarted_sender_is_not",
+        outage_is_bridged_by_odometry,
+    );
     runner.run("damaged_map_bytes_are_rejected", || {
         damaged_map_is_rejected(map_copy)
     });
@@ -309,6 +313,69 @@ fn no_new_odometry_frame_is_no_increment() -> TestResult {
     check(
         loc_core::math::abs(inc.dx_m - 0.1) < 1e-6,
         "wrong increment after the gap",
+    )
+}
+
+/// After a reset the last tracked pose is carried over the outage by the odometry
+/// readings before and after it, its uncertainty grown with the distance; a reading from
+/// a restarted sender, one from too fast a drive, or no reading kept are refused.
+fn outage_is_bridged_by_odometry() -> TestResult {
+    use controller_wire::OdometryFrame;
+    use firmware::resume::{bridge, BridgeRefusal};
+    use firmware::retained::LastScan;
+    use loc_core::geometry::Pose2;
+    let reading = |sequence: u32, time_s: f32, x_m: f32, theta_rad: f32| OdometryFrame {
+        sequence,
+        time_us: (time_s * 1e6) as u64,
+        x_m,
+        y_m: 0.0,
+        theta_rad,
+    };
+    let noise = loc_core::filter::OdometryNoise::DEFAULT;
+    // World heading π/2 at (10, 20); the odometry's own frame is turned against it.
+    let last = LastScan {
+        pose: Pose2::new(10.0, 20.0, core::f32::consts::FRAC_PI_2),
+        sigma_xy_m: 0.005,
+        sigma_theta_rad: 0.001,
+        odometry: Some(reading(100, 4.0, 50.0, 0.0)),
+    };
+    // 15 m straight ahead over 1.5 s (10 m/s).
+    let b = bridge(&last, &reading(140, 5.5, 65.0, 0.0), &noise)
+        .map_err(|_| "a plausible outage was not bridged")?;
+    let p = b.start.pose;
+    check(
+        loc_core::math::hypot(p.x_m - 10.0, p.y_m - 35.0) < 1e-3,
+        "the start is not 15 m along the last heading",
+    )?;
+    // loc-core's default model over 15 m: the heading's random walk (16 mrad/√m) bends the
+    // path by 0.54 m sideways, the scale error (3 %) is 0.45 m along; 0.70 m in all.
+    check(
+        b.start.sigma_xy_m > 0.65 && b.start.sigma_xy_m < 0.75,
+        "the start's position sigma does not follow the odometry model",
+    )?;
+    check(
+        b.start.sigma_theta_rad > 0.06 && b.start.sigma_theta_rad < 0.07,
+        "the start's heading sigma does not follow the odometry model",
+    )?;
+    check(
+        bridge(&last, &reading(3, 0.2, 0.0, 0.0), &noise) == Err(BridgeRefusal::SenderRestarted),
+        "a restarted odometry sender was bridged",
+    )?;
+    check(
+        matches!(
+            bridge(&last, &reading(140, 5.5, 150.0, 0.0), &noise),
+            Err(BridgeRefusal::Implausible { .. })
+        ),
+        "100 m in 1.5 s was bridged",
+    )?;
+    let unkept = LastScan {
+        odometry: None,
+        ..last
+    };
+    check(
+        bridge(&unkept, &reading(140, 5.5, 65.0, 0.0), &noise)
+            == Err(BridgeRefusal::NoOdometryAtLastScan),
+        "bridged without a kept reading",
     )
 }
 
