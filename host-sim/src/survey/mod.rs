@@ -460,12 +460,16 @@ pub fn survey(
         .map(|w| gaps.iter().any(|g| g.1 > w[0].t_s && g.0 < w[1].t_s))
         .collect();
     let scales = steps::local_scales(kfs, &gap_steps);
+    let gyro = scenario
+        .odometry
+        .gyro
+        .and_then(|spec| steps::GyroHeading::estimate(kfs, &gap_steps, &spec));
     problem.steps = (0..kfs.len() - 1)
         .map(|k| {
             if gap_steps[k] {
                 steps::gap_step(&kfs[k], &kfs[k + 1], k)
             } else {
-                steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry)
+                steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry, gyro.as_ref())
             }
         })
         .collect();
