@@ -618,23 +618,24 @@ pub fn survey(
     // The landmarks on the surveyed walls.
     let mut landmarks = Vec::with_capacity(priors.len());
     let mut placements = Vec::new();
+    // (θ, along, across), as the marginals.
     let roughness_m = scenario.tunnel.roughness_sigma_m;
-    let (shared_along_m2, shared_across_m2) = (
+    let shared_fit = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+        0.0,
         (SHARED_FIT_ERROR.0 * roughness_m).powi(2),
         (SHARED_FIT_ERROR.1 * roughness_m).powi(2),
-    );
+    ));
     for (j, p) in priors.iter().enumerate() {
         let wall = match p.wall {
             WallSide::Left => &left.vertices,
             WallSide::Right => &right.vertices,
         };
-        let (pose, cov, shared_m2) = match graph_index[j] {
+        let (pose, cov) = match graph_index[j] {
             Some(g) => (
                 solution.landmarks[g],
-                solution.landmark_covariance[g],
-                (shared_along_m2, shared_across_m2),
+                solution.landmark_covariance[g] + shared_fit,
             ),
-            None => (p.frame, Matrix3::zeros(), (0.0, 0.0)),
+            None => (p.frame, Matrix3::zeros()),
         };
         let (s, standoff) = wall_position(wall, p.wall, (pose.x_m, pose.y_m));
         let from_prior = p.frame.between(pose);
@@ -665,8 +666,8 @@ pub fn survey(
             y_m: pose.y_m,
             s_m: s,
             offset_m: standoff,
-            sd_along_m: (cov[(1, 1)].max(0.0) + shared_m2.0).sqrt(),
-            sd_across_m: (cov[(2, 2)].max(0.0) + shared_m2.1).sqrt(),
+            sd_along_m: cov[(1, 1)].max(0.0).sqrt(),
+            sd_across_m: cov[(2, 2)].max(0.0).sqrt(),
             sd_rotation_rad: cov[(0, 0)].max(0.0).sqrt(),
             fits: fits[j],
             failed_fits: failed[j],

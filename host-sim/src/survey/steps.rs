@@ -25,6 +25,13 @@ pub const SCALE_WINDOW_M: f64 = 25.0;
 /// over [`SCALE_WINDOW_M`] either side.
 pub const ESTIMATED_SCALE_SD: f64 = 0.002;
 
+/// Whether the step into keyframe `k` can calibrate the odometry against the localiser:
+/// it tracked at both ends, and the step does not cross a gap in the odometry
+/// (`gap_steps[k - 1]`).
+fn calibrates(kfs: &[Keyframe], gap_steps: &[bool], k: usize) -> bool {
+    kfs[k - 1].tracking && kfs[k].tracking && !gap_steps.get(k - 1).copied().unwrap_or(false)
+}
+
 /// Per keyframe, the localiser's distance over the odometry's within [`SCALE_WINDOW_M`]
 /// of it (1 where the odometry did not move). Steps where the localiser was not tracking
 /// at either end, or across a gap in the odometry (`gap_steps[k]`: step `k` → `k + 1`),
@@ -37,9 +44,7 @@ pub fn local_scales(kfs: &[Keyframe], gap_steps: &[bool]) -> Vec<f64> {
     for k in 1..n {
         let o = kfs[k - 1].odometry.between(kfs[k].odometry);
         let e = kfs[k - 1].guess.between(kfs[k].guess);
-        let used = kfs[k - 1].tracking
-            && kfs[k].tracking
-            && !gap_steps.get(k - 1).copied().unwrap_or(false);
+        let used = calibrates(kfs, gap_steps, k);
         odo[k] = odo[k - 1] + if used { o.x_m.hypot(o.y_m) } else { 0.0 };
         est[k] = est[k - 1] + if used { e.x_m.hypot(e.y_m) } else { 0.0 };
     }
@@ -88,10 +93,7 @@ impl GyroHeading {
         let (mut t, mut r) = (0.0, 0.0);
         let mut samples = vec![(0.0, 0.0)];
         for k in 1..kfs.len() {
-            let used = kfs[k - 1].tracking
-                && kfs[k].tracking
-                && !gap_steps.get(k - 1).copied().unwrap_or(false);
-            if !used {
+            if !calibrates(kfs, gap_steps, k) {
                 continue;
             }
             let odo = kfs[k - 1].odometry.between(kfs[k].odometry).theta_rad;
