@@ -4,12 +4,13 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
+use host_sim::landmarks::LandmarkChoice;
 use host_sim::record::files;
 use host_sim::replay::ReplaySources;
 use host_sim::stored_map;
 use host_sim::survey::graph::Solver;
 use host_sim::survey::report::{self, AgainstTruth};
-use host_sim::survey::{self, score, Anchor, Stage, SurveyOptions};
+use host_sim::survey::{self, bootstrap, score, Anchor, PriorMap, Stage, SurveyOptions};
 
 #[derive(Args)]
 pub struct SurveyArgs {
@@ -46,8 +47,23 @@ pub struct SurveyArgs {
     /// relative to the first landmark.
     #[arg(long)]
     pub no_design_prior: bool,
-    /// A surveyed landmark: `INDEX,X,Y[,SD]` (index in the design map, base centre in mine
-    /// coordinates in metres, 1σ default 0.005 m). Repeat for more.
+    /// No prior map at all: the drive's own map (odometry, scan matches and the landmarks
+    /// found in the scans) stands in for the design, written to OUT/bootstrap.postcard with
+    /// its landmarks in OUT/bootstrap.csv; the map is relative to the first landmark, or
+    /// tied to anchors (indices as in bootstrap.csv: the order the drive first saw them).
+    #[arg(long, conflicts_with_all = ["design", "no_design_prior"])]
+    pub without_map: bool,
+    /// With `--without-map`: the installed landmarks' model (`p1`…`p4`, `f1`…`f4`, `none`);
+    /// default the recording's scenario's `landmarks.model`.
+    #[arg(long, requires = "without_map")]
+    pub landmarks: Option<String>,
+    /// With `--without-map`: their genes `W,H,D[,h1..h6]` (metres); default the scenario's,
+    /// or the model's paper optimum.
+    #[arg(long, requires = "without_map")]
+    pub genes: Option<String>,
+    /// A surveyed landmark: `INDEX,X,Y[,SD]` (index in the design map, or with
+    /// `--without-map` in bootstrap.csv; base centre in mine coordinates in metres, 1σ
+    /// default 0.005 m). Repeat for more.
     #[arg(long, allow_hyphen_values = true)]
     pub anchor: Vec<String>,
     /// Odometry distance between keyframes, metres.
@@ -86,6 +102,27 @@ fn parse_anchor(text: &str) -> Result<Anchor, String> {
         return Err(format!("--anchor `{text}`: the 1σ must be positive"));
     }
     Ok(a)
+}
+
+/// The installed landmarks' shape for `--without-map`: `--landmarks`/`--genes`, else the
+/// scenario's; `None` for a tunnel without landmarks.
+fn installed_shape(
+    a: &SurveyArgs,
+    scenario: &Path,
+) -> Result<Option<loc_core::landmark::LandmarkShape>, String> {
+    let sc = host_sim::scenario::Scenario::from_file(scenario).map_err(|e| e.to_string())?;
+    let model = a.landmarks.clone().unwrap_or(sc.landmarks.model.clone());
+    let genes = match (&a.genes, &a.landmarks) {
+        (Some(g), _) => Some(LandmarkChoice::parse_genes(g).map_err(|e| format!("--genes: {e}"))?),
+        (None, Some(_)) => None,
+        (None, None) => sc.landmarks.genes.clone(),
+    };
+    match LandmarkChoice::parse(&model, genes.as_deref())
+        .map_err(|e| format!("--landmarks {model}: {e}"))?
+    {
+        LandmarkChoice::None => Ok(None),
+        LandmarkChoice::Shape(s) => Ok(Some(s)),
+    }
 }
 
 fn parse_solver(text: &str) -> Result<Solver, String> {
@@ -131,8 +168,8 @@ pub fn cmd_survey(a: &SurveyArgs) -> Result<(), String> {
     if !(a.keyframe_spacing.is_finite() && a.keyframe_spacing > 0.0) {
         return Err("--keyframe-spacing: give a positive number of metres".into());
     }
-    let src = sources(a)?;
-    let options = SurveyOptions {
+    let mut src = sources(a)?;
+    let mut options = SurveyOptions {
         keyframe_spacing_m: a.keyframe_spacing,
         landmark_range_m: a.range,
         design_tolerance_m: (!a.no_design_prior).then_some(a.tolerance),
@@ -160,6 +197,25 @@ pub fn cmd_survey(a: &SurveyArgs) -> Result<(), String> {
             last.set((stage, pct));
         }
     };
+    if a.without_map {
+        let shape = installed_shape(a, &src.scenario)?;
+        let bootstrap = bootstrap::bootstrap(&src, shape.as_ref(), &options, &|f| {
+            progress(Stage::Bootstrap, f)
+        })
+        .map_err(|e| e.to_string())?;
+        let bytes = stored_map::to_file_bytes(&bootstrap.map).map_err(|e| e.to_string())?;
+        src.map = write(&a.out, "bootstrap.postcard", &bytes)?;
+        write(
+            &a.out,
+            "bootstrap.csv",
+            bootstrap::landmarks_csv(&bootstrap).as_bytes(),
+        )?;
+        if !quiet {
+            eprintln!("survey: {}", bootstrap.summary());
+        }
+        options.design_tolerance_m = None;
+        options.prior = PriorMap::Drive;
+    }
     let s = survey::survey(&src, &options, &progress).map_err(|e| e.to_string())?;
     let against = truth.as_ref().map(|t| AgainstTruth {
         prior: score::score(&s.prior, t),

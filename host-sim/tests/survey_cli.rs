@@ -458,3 +458,54 @@ fn every_solver_back_end_surveys_the_same_map() {
         "{err}"
     );
 }
+
+#[test]
+fn a_survey_without_any_map_finds_the_landmarks_in_the_scans() {
+    // No design: the drive's own map from the odometry, the scan matches and the landmarks
+    // found in the scans. The vehicle's start pose is surveyed (the map's frame is the
+    // drive's start): then the map is in mine coordinates to the heading's random walk.
+    let tmp = tempfile::tempdir().unwrap();
+    let (rec, out) = (tmp.path().join("rec"), tmp.path().join("survey"));
+    record(&rec, &[]);
+    std::fs::write(
+        rec.join("initial_pose.csv"),
+        "x_m,y_m,theta_rad,sigma_xy_m,sigma_theta_rad\n2,0,0,0.01,0.002\n",
+    )
+    .unwrap();
+    let j = survey_with(&rec, &out, &["--without-map"]);
+    assert_eq!(j["prior_map"], "drive", "{j}");
+    assert_eq!(j["gauge"], "first-landmark", "{j}");
+    // The drive passes 45 landmarks, one behind its start: measured 44 found, every one a
+    // true landmark, 25 mm RMS from the truth (the heading's random walk across, 24 mm).
+    let found = std::fs::read_to_string(out.join("bootstrap.csv")).unwrap();
+    assert_eq!(found.lines().count() - 1, 44, "{found}");
+    let surveyed = &j["against_truth"]["surveyed"];
+    assert_eq!(surveyed["paired"], 44, "{surveyed}");
+    assert_eq!(surveyed["unpaired"], 0, "{surveyed}");
+    assert!(surveyed["rms_m"].as_f64().unwrap() < 0.04, "{surveyed}");
+    assert!(
+        surveyed["rms_along_m"].as_f64().unwrap() < 0.015,
+        "{surveyed}"
+    );
+    // The localiser tracks against it.
+    let r = ok(&host_sim(&[
+        "replay",
+        rec.to_str().unwrap(),
+        "--map",
+        out.join("survey.postcard").to_str().unwrap(),
+        "--json",
+    ]));
+    let r: serde_json::Value = serde_json::from_str(&r).unwrap();
+    assert!(r["position_rms_m"].as_f64().unwrap() < 0.04, "{r}");
+    // `--design` and `--without-map` contradict each other.
+    let e = host_sim(&[
+        "survey",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--without-map",
+        "--design",
+        rec.join("map.postcard").to_str().unwrap(),
+    ]);
+    assert!(!e.status.success());
+}

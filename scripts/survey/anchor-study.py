@@ -47,6 +47,75 @@ def anchors(landmarks, spacing_m):
     return idx
 
 
+def truth_pose_at(rec):
+    """A function t -> true vehicle pose (x, y, theta) from the recording's ground truth."""
+    import bisect
+    import csv
+    rows = [(float(r["t_s"]), float(r["x_m"]), float(r["y_m"]), float(r["theta_rad"]))
+            for r in csv.DictReader(open(os.path.join(rec, "ground_truth.csv")))]
+    times = [r[0] for r in rows]
+    return lambda t: rows[min(bisect.bisect_left(times, t), len(rows) - 1)][1:]
+
+
+def pair_found(bootstrap_csv, rec, landmarks):
+    """The drive's own landmarks (bootstrap.csv of `survey --without-map`) paired with the true
+    ones: each placed by the true pose of the keyframe nearest it (its map is in the drive's
+    frame, not the truth's), then the nearest true landmark on its wall within 0.5 m.
+    Returns {found index: true index}."""
+    import csv
+    import math
+    at = truth_pose_at(rec)
+    out = {}
+    for r in csv.DictReader(open(bootstrap_csv)):
+        x, y, th = at(float(r["nearest_t_s"]))
+        u, v = float(r["in_nearest_x_m"]), float(r["in_nearest_y_m"])
+        p = (x + math.cos(th) * u - math.sin(th) * v, y + math.sin(th) * u + math.cos(th) * v)
+        best = min(((math.dist(p, centre(l)), i) for i, l in enumerate(landmarks) if l["wall"] == r["wall"]),
+                   default=(1e9, None))
+        if best[0] <= 0.5:
+            out[int(r["index"])] = best[1]
+    return out
+
+
+def shape_error(landmarks_csv, pairs, landmarks):
+    """RMS along / across and max of a survey's landmarks against the truth after the best
+    rigid fit (rotation and translation): how far the map is from the tunnel's shape, the
+    frame set aside (a map relative to its first landmark has the drive's start frame)."""
+    import csv
+    import math
+    est, tru = [], []
+    for r in csv.DictReader(open(landmarks_csv)):
+        j = int(r["prior_index"])
+        if r["map_index"] and j in pairs:
+            est.append((float(r["x_m"]), float(r["y_m"])))
+            tru.append(pairs[j])
+    n = len(est)
+    me = (sum(p[0] for p in est) / n, sum(p[1] for p in est) / n)
+    tc = [centre(landmarks[i]) for i in tru]
+    mt = (sum(p[0] for p in tc) / n, sum(p[1] for p in tc) / n)
+    sxx = sum((e[0] - me[0]) * (t[0] - mt[0]) + (e[1] - me[1]) * (t[1] - mt[1]) for e, t in zip(est, tc))
+    sxy = sum((e[0] - me[0]) * (t[1] - mt[1]) - (e[1] - me[1]) * (t[0] - mt[0]) for e, t in zip(est, tc))
+    a = math.atan2(sxy, sxx)
+    c, s = math.cos(a), math.sin(a)
+    errs = []
+    for e, i in zip(est, tru):
+        p = (mt[0] + c * (e[0] - me[0]) - s * (e[1] - me[1]), mt[1] + s * (e[0] - me[0]) + c * (e[1] - me[1]))
+        poly = landmarks[i]["polyline"]
+        tx, ty = poly[-1][0] - poly[0][0], poly[-1][1] - poly[0][1]
+        norm = math.hypot(tx, ty)
+        t0 = centre(landmarks[i])
+        d = (p[0] - t0[0], p[1] - t0[1])
+        errs.append(((d[0] * tx + d[1] * ty) / norm, (-d[0] * ty + d[1] * tx) / norm))
+    rms = lambda v: math.sqrt(sum(x * x for x in v) / len(v))
+    return {
+        "rms_m": rms([math.hypot(*e) for e in errs]),
+        "rms_along_m": rms([e[0] for e in errs]),
+        "rms_across_m": rms([e[1] for e in errs]),
+        "max_m": max(math.hypot(*e) for e in errs),
+        "paired": n,
+    }
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=7)
@@ -84,6 +153,29 @@ def main():
             replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
             rows.append((odometry, name, len(idx) if idx else 0, t, replay["position_rms_m"]))
             print(f"  {name}: {t['rms_m'] * 1e3:.1f} mm", file=sys.stderr)
+        # Without any prior map: the drive's own map, relative to its first landmark (scored
+        # after a rigid fit), or tied to anchors (its landmarks paired with the true ones to
+        # name them, as a surveyor names the landmarks they surveyed).
+        out = os.path.join(work, f"{os.path.basename(rec)}-nomap")
+        host_sim("survey", rec, "--out", out, "--quiet", "--without-map")
+        pairs = pair_found(os.path.join(out, "bootstrap.csv"), rec, landmarks)
+        found_of = {t: f for f, t in pairs.items()}
+        t = shape_error(os.path.join(out, "landmarks.csv"), pairs, landmarks)
+        replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
+        rows.append((odometry, "no map: relative (rigid fit)", 0, t, replay["position_rms_m"]))
+        print(f"  no map, relative: {t['rms_m'] * 1e3:.1f} mm", file=sys.stderr)
+        for name, idx in setups[1:4]:
+            idx = [i for i in idx if i in found_of]
+            out = os.path.join(work, f"{os.path.basename(rec)}-nomap-{len(rows)}")
+            args = ["survey", rec, "--out", out, "--quiet", "--without-map"]
+            for i in idx:
+                x, y = centre(landmarks[i])
+                args += ["--anchor", f"{found_of[i]},{x:.4f},{y:.4f}"]
+            host_sim(*args)
+            t = json.load(open(os.path.join(out, "survey.json")))["against_truth"]["surveyed"]
+            replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
+            rows.append((odometry, f"no map: {name}", len(idx), t, replay["position_rms_m"]))
+            print(f"  no map, {name}: {t['rms_m'] * 1e3:.1f} mm", file=sys.stderr)
         truth = json.loads(host_sim("replay", rec, "--map", os.path.join(rec, "as_built.postcard"), "--json"))
         design = json.loads(host_sim("replay", rec, "--json"))
         rows.append((odometry, "true as-built map", 0, None, truth["position_rms_m"]))

@@ -72,6 +72,16 @@ pub struct Problem {
     pub observations: Vec<Relative>,
     /// Landmark priors.
     pub priors: Vec<Prior>,
+    /// 1σ of the prior holding the first keyframe where it starts (metres and radians);
+    /// `None`: [`LOOSE_PRIOR_SD`], when landmarks or anchors fix the map.
+    pub first_keyframe_sd: Option<f64>,
+}
+
+impl Problem {
+    /// 1σ of the first keyframe's prior.
+    pub fn first_keyframe_sd(&self) -> f64 {
+        self.first_keyframe_sd.unwrap_or(LOOSE_PRIOR_SD)
+    }
 }
 
 impl Relative {

@@ -26,7 +26,8 @@ pub struct Keyframe {
     pub scan_index: usize,
     /// Scan time, seconds.
     pub t_s: f64,
-    /// The localiser's pose against the prior map, world frame.
+    /// The estimator's pose (the localiser's against the prior map, or dead reckoning),
+    /// world frame.
     pub guess: SimPose,
     /// Whether the localiser was tracking at this scan.
     pub tracking: bool,
@@ -49,20 +50,22 @@ pub struct FrontEnd {
     pub scans: usize,
 }
 
-/// Localises the drive against the prior map and keeps a keyframe whenever the odometry
-/// has moved `spacing_m` (or turned 0.05 rad) since the last one. `progress(fraction)` is
-/// called as the scans are read again.
+/// Runs `estimator` over the drive — the localiser against the prior map, or
+/// dead reckoning from the odometry alone for a survey without one ([`super::bootstrap`]) —
+/// and keeps a keyframe whenever the odometry has moved `spacing_m` (or turned 0.05 rad)
+/// since the last one. `progress(fraction)` is called as the scans are read again.
 pub fn run(
     sources: &ReplaySources,
     scenario: &Scenario,
     spacing_m: f64,
+    estimator: EstimatorChoice,
     progress: &dyn Fn(f64),
 ) -> Result<FrontEnd, SurveyError> {
     let options = ReplayOptions {
         keep_scans: false,
         ..ReplayOptions::default()
     };
-    let replay = replay_with(sources, EstimatorChoice::Localizer, &options)?;
+    let replay = replay_with(sources, estimator, &options)?;
     let config = localizer_config(scenario);
     let mut stream = ScanStream::open(&sources.scanner, sources.scanner_times.as_deref())
         .map_err(crate::replay::ReplayError::from)?;

@@ -19,6 +19,7 @@
 //! landmark-like returns no design landmark explains, stretches of wall without points, and
 //! stretches without landmarks, where the along-tunnel extent rests on the odometry alone.
 
+pub mod bootstrap;
 pub mod graph;
 pub mod keyframes;
 pub mod landmark_fit;
@@ -47,6 +48,7 @@ use serde::Serialize;
 use crate::estimator::{localizer_config, odometry_noise};
 use crate::replay::{ReplayError, ReplaySources};
 use crate::scenario::Scenario;
+use crate::session::EstimatorChoice;
 use crate::stored_map::{wall_position, MAP_CELL_M};
 use crate::vehicle::SimPose;
 use graph::{Prior, Problem, Relative, Solver};
@@ -65,6 +67,27 @@ pub struct Anchor {
     pub y_m: f64,
     /// 1σ of that position, metres.
     pub sd_m: f64,
+}
+
+/// Where the survey's prior map came from: what pairs the scans with landmarks and starts
+/// the solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PriorMap {
+    /// The design (or an earlier survey).
+    Design,
+    /// The drive's own map, built without any prior ([`bootstrap`]).
+    Drive,
+}
+
+impl PriorMap {
+    /// Name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            PriorMap::Design => "design",
+            PriorMap::Drive => "drive's own map",
+        }
+    }
 }
 
 /// How a survey runs.
@@ -91,6 +114,8 @@ pub struct SurveyOptions {
     /// Drive without a landmark fix longer than this is reported as a stretch whose
     /// along-tunnel extent rests on the odometry, metres.
     pub max_unobserved_m: f64,
+    /// Where the prior map came from (for the report's words).
+    pub prior: PriorMap,
 }
 
 impl Default for SurveyOptions {
@@ -107,6 +132,7 @@ impl Default for SurveyOptions {
             solver: Solver::Factrs,
             fit: FitConfig::default(),
             max_unobserved_m: 15.0,
+            prior: PriorMap::Design,
         }
     }
 }
@@ -260,8 +286,10 @@ pub struct SolveStats {
 pub struct Survey {
     /// The surveyed map (loc-core's stored map, the firmware's capacity).
     pub map: Box<TunnelMap>,
-    /// The prior map (the design) it started from.
+    /// The prior map it started from.
     pub prior: Box<TunnelMap>,
+    /// Where that came from.
+    pub prior_map: PriorMap,
     /// Every landmark of the prior map.
     pub landmarks: Vec<SurveyedLandmark>,
     /// What fixes the map in the world.
@@ -365,6 +393,8 @@ impl From<ReplayError> for SurveyError {
 /// Stages reported to the progress callback.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stage {
+    /// Without a prior: the drive's own map ([`bootstrap`]).
+    Bootstrap,
     /// Localising against the prior and reading the keyframes.
     FrontEnd,
     /// Fitting landmarks.
@@ -379,6 +409,7 @@ impl Stage {
     /// Name for progress lines.
     pub fn name(self) -> &'static str {
         match self {
+            Stage::Bootstrap => "the drive's own map (odometry, scan matches, landmarks found)",
             Stage::FrontEnd => "localising against the prior map",
             Stage::Observations => "fitting landmarks",
             Stage::Solve => "solving keyframes and landmarks",
@@ -387,7 +418,7 @@ impl Stage {
     }
 }
 
-fn wall_name(w: WallSide) -> &'static str {
+pub(crate) fn wall_name(w: WallSide) -> &'static str {
     match w {
         WallSide::Left => "left",
         WallSide::Right => "right",
@@ -403,9 +434,13 @@ pub fn survey(
     let scenario = Scenario::from_file(&sources.scenario).map_err(ReplayError::from)?;
     let mut timings = Timings::default();
     let t = Instant::now();
-    let front = keyframes::run(sources, &scenario, options.keyframe_spacing_m, &|f| {
-        progress(Stage::FrontEnd, f)
-    })?;
+    let front = keyframes::run(
+        sources,
+        &scenario,
+        options.keyframe_spacing_m,
+        EstimatorChoice::Localizer,
+        &|f| progress(Stage::FrontEnd, f),
+    )?;
     timings.front_end_s = t.elapsed().as_secs_f64();
     let kfs = &front.keyframes;
     if kfs.len() < 2 {
@@ -723,8 +758,8 @@ pub fn survey(
         .count();
     if not_seen > 0 {
         warnings.push(format!(
-            "{not_seen} landmarks of the design passed within {:.0} m but were fitted in fewer than {} scans: left out of the map (fallen off, hidden, or moved from their marks; see the landmark table)",
-            options.landmark_range_m, options.min_observations
+            "{not_seen} landmarks of the {} passed within {:.0} m but were fitted in fewer than {} scans: left out of the map (fallen off, hidden, or moved from their marks; see the landmark table)",
+            options.prior.name(), options.landmark_range_m, options.min_observations
         ));
     }
     if !odometry_gaps.is_empty() {
@@ -760,8 +795,9 @@ pub fn survey(
     }
     if !unexplained.is_empty() {
         warnings.push(format!(
-            "{} places show landmark-like returns no landmark of the design explains (a landmark not in the design, or one moved off its mark; see `unexplained`)",
-            unexplained.len()
+            "{} places show landmark-like returns no landmark of the {} explains (a landmark not in it, or one moved off its mark; see `unexplained`)",
+            unexplained.len(),
+            options.prior.name()
         ));
     }
     if gauge == Gauge::FirstPose {
@@ -789,6 +825,7 @@ pub fn survey(
     Ok(Survey {
         map,
         prior: front.replay.map.clone(),
+        prior_map: options.prior,
         landmarks,
         gauge,
         scans: front.scans,
@@ -825,7 +862,7 @@ fn diag(theta_rad: f64, x_m: f64, y_m: f64) -> Matrix3<f64> {
 }
 
 /// Component-wise median of poses (robust start for a landmark seen many times).
-fn median_pose(v: &[SimPose]) -> SimPose {
+pub(crate) fn median_pose(v: &[SimPose]) -> SimPose {
     let med = |f: &dyn Fn(&SimPose) -> f64| {
         let mut x: Vec<f64> = v.iter().map(f).collect();
         x.sort_unstable_by(f64::total_cmp);
@@ -835,7 +872,7 @@ fn median_pose(v: &[SimPose]) -> SimPose {
 }
 
 /// Odometry distance driven at each keyframe, metres.
-fn driven_m(kfs: &[keyframes::Keyframe]) -> Vec<f64> {
+pub(crate) fn driven_m(kfs: &[keyframes::Keyframe]) -> Vec<f64> {
     let mut d = 0.0;
     let mut out = Vec::with_capacity(kfs.len());
     for (i, k) in kfs.iter().enumerate() {

@@ -7,7 +7,8 @@ use serde::Serialize;
 
 use super::score::LandmarkScore;
 use super::{
-    Gauge, LandmarkState, SolveStats, Stretch, Survey, SurveyedLandmark, Timings, Unexplained,
+    Gauge, LandmarkState, PriorMap, SolveStats, Stretch, Survey, SurveyedLandmark, Timings,
+    Unexplained,
 };
 
 /// The surveyed map and the prior against the truth (simulated drives).
@@ -24,6 +25,8 @@ pub struct AgainstTruth {
 pub struct SurveyJson<'a> {
     /// What fixes the map.
     pub gauge: Gauge,
+    /// Where the prior map came from: the design, or the drive's own map (`--without-map`).
+    pub prior_map: PriorMap,
     /// Scans in the recording.
     pub scans: usize,
     /// Keyframes used.
@@ -87,6 +90,7 @@ pub fn json<'a>(s: &'a Survey, truth: Option<AgainstTruth>) -> SurveyJson<'a> {
     let (median, max) = sd_stats(s);
     SurveyJson {
         gauge: s.gauge,
+        prior_map: s.prior_map,
         scans: s.scans,
         keyframes: s.keyframes,
         prior_landmarks: s.landmarks.len(),
@@ -152,6 +156,7 @@ fn mm(m: f64) -> String {
 pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
     let mut o = String::new();
     let (median, max) = sd_stats(s);
+    let prior = s.prior_map.name();
     let gauge = match s.gauge {
         Gauge::Design => "the design's marks (installation tolerance) and any anchors",
         Gauge::Anchors => "the surveyed anchors",
@@ -181,13 +186,13 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
         let _ = writeln!(o, "\nlandmarks against the true as-built map:");
         let _ = writeln!(
             o,
-            "  {:<10} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
+            "  {:<16} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
             "map", "paired", "RMS", "along", "across", "rel. first", "max"
         );
-        for (name, sc) in [("design", &t.prior), ("surveyed", &t.surveyed)] {
+        for (name, sc) in [(prior, &t.prior), ("surveyed", &t.surveyed)] {
             let _ = writeln!(
                 o,
-                "  {:<10} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
+                "  {:<16} {:>8} {:>10} {:>10} {:>10} {:>12} {:>10}",
                 name,
                 sc.paired,
                 mm(sc.rms_m),
@@ -206,7 +211,7 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
     if !not_seen.is_empty() {
         let _ = writeln!(
             o,
-            "\nlandmarks of the design not surveyed (left out of the map):"
+            "\nlandmarks of the {prior} not surveyed (left out of the map):"
         );
         for l in not_seen {
             let _ = writeln!(
@@ -240,7 +245,10 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
         }
     }
     if !s.unexplained.is_empty() {
-        let _ = writeln!(o, "\nlandmark-like returns no design landmark explains:");
+        let _ = writeln!(
+            o,
+            "\nlandmark-like returns no landmark of the {prior} explains:"
+        );
         for u in &s.unexplained {
             let _ = writeln!(
                 o,

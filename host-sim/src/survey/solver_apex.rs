@@ -25,9 +25,7 @@ use apex_solver::{
 use nalgebra::Matrix3;
 use nalgebra_apex::{DMatrix, DVector};
 
-use super::graph::{
-    information, GraphError, Problem, Solution, HUBER_K, LOOSE_PRIOR_SD, MARGINAL_BATCH,
-};
+use super::graph::{information, GraphError, Problem, Solution, HUBER_K, MARGINAL_BATCH};
 use crate::vehicle::SimPose;
 
 /// Index in apex's `(x, y, θ)` of each of the survey's `(θ, x, y)`.
@@ -99,7 +97,7 @@ pub(super) fn solve(problem: &Problem, max_iterations: usize) -> Result<Solution
         .collect();
     let missing = |what: &str, i: usize| GraphError::Solver(format!("{what} {i} out of range"));
     if let (Some(&k0), Some(first)) = (x.first(), problem.keyframes.first()) {
-        let n = NoiseModel::from_sigmas(&[LOOSE_PRIOR_SD; 3])
+        let n = NoiseModel::from_sigmas(&[problem.first_keyframe_sd(); 3])
             .map_err(|e| GraphError::Solver(format!("the loose prior: {e}")))?;
         add_prior(&mut apex, k0, *first, n, || "the loose prior".into())?;
     }

@@ -13,7 +13,7 @@ use factrs::optimizers::{LevenParams, OptError, OptObserver, Optimizer};
 use factrs::variables::SE2;
 use nalgebra::Matrix3;
 
-use super::graph::{GraphError, Problem, Solution, HUBER_K, LOOSE_PRIOR_SD, MARGINAL_BATCH};
+use super::graph::{GraphError, Problem, Solution, HUBER_K, MARGINAL_BATCH};
 use crate::vehicle::SimPose;
 
 /// factrs' typed keys: `X(k)` keyframe k, `L(j)` landmark j.
@@ -59,7 +59,7 @@ pub(super) fn solve(problem: &Problem, max_iterations: usize) -> Result<Solution
     }
     let mut graph = Graph::new();
     if let Some(first) = problem.keyframes.first() {
-        let n = GaussianNoise::<3>::from_scalar_sigma(LOOSE_PRIOR_SD);
+        let n = GaussianNoise::<3>::from_scalar_sigma(problem.first_keyframe_sd());
         graph.add_factor(
             FactorBuilder::new1(PriorResidual::new(se2(*first)), X(0))
                 .noise(n)

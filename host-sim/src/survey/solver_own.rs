@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use nalgebra_sparse::factorization::{CscCholesky, CscSymbolicCholesky};
 use nalgebra_sparse::pattern::SparsityPattern;
 
-use super::graph::{information, GraphError, Problem, Solution, HUBER_K, LOOSE_PRIOR_SD};
+use super::graph::{information, GraphError, Problem, Solution, HUBER_K};
 use super::own_se2::{self, Tangent};
 use crate::vehicle::SimPose;
 
@@ -242,7 +242,7 @@ fn factors(problem: &Problem) -> Result<Vec<Factor>, GraphError> {
         1 + problem.steps.len() + problem.observations.len() + problem.priors.len(),
     );
     if let Some(first) = problem.keyframes.first() {
-        let info = Matrix3::identity() / (LOOSE_PRIOR_SD * LOOSE_PRIOR_SD);
+        let info = Matrix3::identity() / problem.first_keyframe_sd().powi(2);
         out.push(factor(None, 0, *first, info, false));
     }
     for s in &problem.steps {
