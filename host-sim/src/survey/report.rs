@@ -202,6 +202,12 @@ pub fn text(s: &Survey, truth: Option<&AgainstTruth>) -> String {
                 mm(sc.max_m)
             );
         }
+        if s.prior_map == PriorMap::Drive && s.gauge == Gauge::FirstLandmark {
+            let _ = writeln!(
+                o,
+                "  (no map and no anchors: the map is in the frame of the drive's initial pose, turned by that pose's heading error against the truth; landmarks pair within 0.5 m only near the start. Tie it with --anchor to score it.)"
+            );
+        }
     }
     let not_seen: Vec<&SurveyedLandmark> = s
         .landmarks
