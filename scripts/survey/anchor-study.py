@@ -116,6 +116,14 @@ def shape_error(landmarks_csv, pairs, landmarks):
     }
 
 
+def survey_and_replay(rec, out, args):
+    """Surveys `rec` into `out` with `args`; the survey's own score and `replay`'s RMS on it."""
+    host_sim("survey", rec, "--out", out, "--quiet", *args)
+    t = json.load(open(os.path.join(out, "survey.json")))["against_truth"]["surveyed"]
+    replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
+    return t, replay["position_rms_m"]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=7)
@@ -142,16 +150,14 @@ def main():
         host_sim("run", *common, *extra, "--record", rec, "--quiet")
         for name, idx in setups:
             out = os.path.join(work, f"{os.path.basename(rec)}-{len(rows)}")
-            args = ["survey", rec, "--out", out, "--quiet"]
+            args = []
             if idx is not None:
                 args.append("--no-design-prior")
                 for i in idx:
                     x, y = centre(landmarks[i])
                     args += ["--anchor", f"{i},{x:.4f},{y:.4f}"]
-            host_sim(*args)
-            t = json.load(open(os.path.join(out, "survey.json")))["against_truth"]["surveyed"]
-            replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
-            rows.append((odometry, name, len(idx) if idx else 0, t, replay["position_rms_m"]))
+            t, replay = survey_and_replay(rec, out, args)
+            rows.append((odometry, name, len(idx) if idx else 0, t, replay))
             print(f"  {name}: {t['rms_m'] * 1e3:.1f} mm", file=sys.stderr)
         # Without any prior map: the drive's own map, relative to its first landmark (scored
         # after a rigid fit), or tied to anchors (its landmarks paired with the true ones to
@@ -167,14 +173,12 @@ def main():
         for name, idx in setups[1:4]:
             idx = [i for i in idx if i in found_of]
             out = os.path.join(work, f"{os.path.basename(rec)}-nomap-{len(rows)}")
-            args = ["survey", rec, "--out", out, "--quiet", "--without-map"]
+            args = ["--without-map"]
             for i in idx:
                 x, y = centre(landmarks[i])
                 args += ["--anchor", f"{found_of[i]},{x:.4f},{y:.4f}"]
-            host_sim(*args)
-            t = json.load(open(os.path.join(out, "survey.json")))["against_truth"]["surveyed"]
-            replay = json.loads(host_sim("replay", rec, "--map", os.path.join(out, "survey.postcard"), "--json"))
-            rows.append((odometry, f"no map: {name}", len(idx), t, replay["position_rms_m"]))
+            t, replay = survey_and_replay(rec, out, args)
+            rows.append((odometry, f"no map: {name}", len(idx), t, replay))
             print(f"  no map, {name}: {t['rms_m'] * 1e3:.1f} mm", file=sys.stderr)
         truth = json.loads(host_sim("replay", rec, "--map", os.path.join(rec, "as_built.postcard"), "--json"))
         design = json.loads(host_sim("replay", rec, "--json"))

@@ -40,7 +40,7 @@ use serde::Serialize;
 
 use super::graph::{self, Problem, Relative};
 use super::keyframes::{self, Keyframe};
-use super::landmark_fit::{fit, FitModel, LandmarkFix};
+use super::landmark_fit::{fit_in_scan, FitModel, LandmarkFix};
 use super::walls::{self, Stations};
 use super::{median_pose, scan_steps, steps, wall_name, SurveyError, SurveyOptions};
 use crate::estimator::{localizer_config, odometry_noise};
@@ -226,13 +226,7 @@ fn detect(
             .iter()
             .filter_map(|&s| {
                 let t0 = SimPose::new(base.0 + s * t.0, base.1 + s * t.1, theta);
-                let pts: Vec<(f64, f64)> = kf
-                    .points
-                    .iter()
-                    .filter(|p| model.covers(t0.apply_inverse(**p)))
-                    .copied()
-                    .collect();
-                fit(model, &pts, t0, config)
+                fit_in_scan(model, &kf.points, t0, config)
             })
             .min_by(|x, y| x.rms_m.total_cmp(&y.rms_m));
         if let Some(fix) = best {

@@ -152,6 +152,22 @@ impl FitModel {
     }
 }
 
+/// Fits `model` from `initial` to those of a scan's `points` (vehicle frame, metres) that
+/// it covers there ([`FitModel::covers`]): [`fit`] on the landmark's neighbourhood.
+pub fn fit_in_scan(
+    model: &FitModel,
+    points: &[(f64, f64)],
+    initial: SimPose,
+    config: &FitConfig,
+) -> Option<LandmarkFix> {
+    let near: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| model.covers(initial.apply_inverse(**p)))
+        .copied()
+        .collect();
+    fit(model, &near, initial, config)
+}
+
 /// Fits `model` to `points` (vehicle frame, metres) from the initial landmark pose
 /// `initial` (landmark frame in the vehicle frame). `None` when too few points lie on the
 /// landmark or the fit is not well posed (a landmark seen edge-on, or half hidden).

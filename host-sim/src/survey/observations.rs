@@ -13,7 +13,7 @@ use loc_core::strip::PointLabel;
 
 use super::graph::Relative;
 use super::keyframes::Keyframe;
-use super::landmark_fit::{fit, FitConfig, FitModel};
+use super::landmark_fit::{fit_in_scan, FitConfig, FitModel};
 use crate::vehicle::SimPose;
 
 /// One landmark of the prior map, ready to be fitted.
@@ -86,13 +86,7 @@ pub fn observe(
     let mut covered = vec![false; kf.points.len()];
     for &(j, t0) in &near {
         let model = &landmarks[j].model;
-        let pts: Vec<(f64, f64)> = kf
-            .points
-            .iter()
-            .filter(|p| model.covers(t0.apply_inverse(**p)))
-            .copied()
-            .collect();
-        match fit(model, &pts, t0, config) {
+        match fit_in_scan(model, &kf.points, t0, config) {
             Some(f) => {
                 // Explained: what lies on the landmark where it was fitted (not the wall
                 // runs around it, where a landmark moved a little way off its mark shows).
