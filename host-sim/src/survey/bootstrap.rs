@@ -7,7 +7,7 @@
 //! 1. keyframes dead-reckoned from the odometry (`host-sim replay --estimator odometry`),
 //!    tied keyframe to keyframe by the same scan-to-scan matches as the survey
 //!    ([`super::scan_steps`]: across and heading from the walls) and solved as a pose graph
-//!    with no landmark — the trajectory's along-tunnel extent is the odometry's;
+//!    with no landmark, the first keyframe held at the drive's initial pose;
 //! 2. in each keyframe, every run of landmark-labelled returns (loc-core's wall stripping)
 //!    within [`DETECT_RANGE_M`] is placed on its wall (a line through the wall points beside
 //!    it) and the installed shape fitted to it ([`super::landmark_fit`]): one landmark pose
@@ -16,21 +16,20 @@
 //!    of a landmark seen in the last [`TRACK_MEMORY_M`] driven on the same wall is that
 //!    landmark (the §4.4 spacing puts a wall's landmarks metres apart); a landmark needs
 //!    `min_observations` keyframes;
-//! 4. **the odometry's scale from the landmarks**: a landmark seen from keyframes metres apart
-//!    drifts along the tunnel in the dead-reckoned frame by the odometry's scale error times
-//!    the distance driven between them (wheels that over-read by 1 % place it 1 cm further
-//!    per metre). The slope of each landmark's fitted along-position against the distance
-//!    driven, pooled over [`super::steps::SCALE_WINDOW_M`] either side, rescales the
-//!    odometry steps and the graph is solved again;
+//! 4. keyframes and landmarks solved together: a landmark ties the keyframes that saw it,
+//!    along the tunnel too, which the walls do not — so the landmarks give the along-tunnel
+//!    scale the odometry lacks (the first solve's path is the odometry's length, a few per
+//!    cent long with wheels that over-read and slip; on the kilometre the second solve's
+//!    path is 0.9801 of the odometry's, the truth 0.9802);
 //! 5. the walls from every keyframe's wall points at the solved poses (stations every metre
 //!    along lines at each wall's median distance from the trajectory, [`super::walls`]) and
 //!    the landmarks on them: loc-core's [`TunnelMap`], in the frame of the drive's initial
 //!    pose, landmarks in the order the drive first saw them.
 //!
-//! The map is only a start: its landmarks sit where one pass of dead reckoning put them
-//! (decimetres over a kilometre), its along-tunnel scale is the landmarks' estimate of the
-//! odometry's. The joint survey against it fixes the landmarks to each other; anchors
-//! (`--anchor`, indices as in this map) tie it to mine coordinates and its scale.
+//! The map is only a start: it is in the frame of the drive's initial pose (turned by that
+//! pose's heading error, bent by the heading's random walk over the scan matches). The survey
+//! against it refits every landmark from the localiser's poses; anchors (`--anchor`, indices
+//! as in this map) tie it to mine coordinates.
 
 use loc_core::landmark::{LandmarkShape, Profile};
 use loc_core::map::{LandmarkPlacement, TunnelMap, WallSide, MAX_LANDMARK_OFFSET_M};
