@@ -93,7 +93,7 @@ pub fn worst_sigmas<'a>(samples: impl IntoIterator<Item = &'a Sample>) -> Option
 }
 
 /// How the protection levels of a run's scans held against the truth (loc-core's
-/// [`Protection`]: a bound on the horizontal position error, and whether the pose was
+/// [`Protection`](loc_core::localizer::Protection): a bound on the horizontal position error, and whether the pose was
 /// available). Sums over runs with [`ProtectionSummary::add`].
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct ProtectionSummary {

@@ -6,7 +6,7 @@
 //! telegrams give back exactly the scans the live run localised on. With their times.
 //!
 //! The stream may be raw CoLa-B or CoLa-A bytes, pcap/pcapng, or SICK's `.pcapng.json`
-//! (lidar-driver's [`Recording`] detects which). Scan times come from, in this order:
+//! (lidar-driver's [`Recording`](lidar_driver::recording::Recording) detects which). Scan times come from, in this order:
 //! 1. a sidecar CSV (`scanner.colab.times.csv`: `index, t_s`), one row per scan telegram;
 //! 2. the capture's own time stamps (pcap/pcapng: seconds since the epoch; `.pcapng.json`:
 //!    seconds since the capture started);

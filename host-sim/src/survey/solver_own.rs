@@ -6,7 +6,7 @@
 //! **Ordering.** nalgebra-sparse's `CscCholesky` factors in the order it is given (no
 //! fill-reducing permutation), so the normal equations are laid out in the drive's own
 //! order: the keyframes in sequence, each landmark right after the last keyframe that sees
-//! it ([`chain_order`]). Keyframes couple only to keyframes a few baselines back (at most
+//! it (`chain_order`). Keyframes couple only to keyframes a few baselines back (at most
 //! 16 on the kilometre), so the keyframe part of the factor stays a band; a landmark placed
 //! after its last observer fills in only over the stretch it is seen from (20 m of range:
 //! about 160 keyframes), instead of the whole drive (landmarks last: an arrow whose
