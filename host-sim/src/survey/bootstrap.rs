@@ -309,20 +309,16 @@ pub fn bootstrap(
     }
     let driven = super::driven_m(kfs);
     let gaps = &front.replay.odometry_gaps;
-    let gap_steps: Vec<bool> = kfs
-        .windows(2)
-        .map(|w| gaps.iter().any(|g| g.1 > w[0].t_s && g.0 < w[1].t_s))
-        .collect();
-    let odometry = odometry_noise(&scenario);
-    let odometry_steps: Vec<Relative> = (0..kfs.len() - 1)
-        .map(|k| {
-            if gap_steps[k] {
-                steps::gap_step(&kfs[k], &kfs[k + 1], k)
-            } else {
-                steps::step(&kfs[k], &kfs[k + 1], k, 1.0, &odometry, None)
-            }
-        })
-        .collect();
+    let gap_steps = steps::gap_steps(kfs, gaps);
+    // The odometry as logged: nothing calibrates its scale before the landmarks are solved.
+    let unit_scales = vec![1.0; kfs.len()];
+    let odometry_steps = steps::odometry_steps(
+        kfs,
+        &gap_steps,
+        &unit_scales,
+        &odometry_noise(&scenario),
+        None,
+    );
     let match_config = scan_steps::scan_match_config(&localizer_config(&scenario).matching);
     let scan = scan_steps::scan_factors(kfs, &odometry_steps, &match_config).factors;
     let mut problem = Problem {

@@ -500,10 +500,7 @@ pub fn survey(
     // Steps across time the odometry log does not cover: its dead reckoning misses that
     // motion.
     let gaps = &front.replay.odometry_gaps;
-    let gap_steps: Vec<bool> = kfs
-        .windows(2)
-        .map(|w| gaps.iter().any(|g| g.1 > w[0].t_s && g.0 < w[1].t_s))
-        .collect();
+    let gap_steps = steps::gap_steps(kfs, gaps);
     let scales = steps::local_scales(kfs, &gap_steps);
     // The gyro's bias is estimated against the localiser's heading, which is only
     // independent of the drive against a map made without it: against the drive's own map
@@ -514,15 +511,7 @@ pub fn survey(
         .gyro
         .filter(|_| options.prior == PriorMap::Design)
         .and_then(|spec| steps::GyroHeading::estimate(kfs, &gap_steps, &spec));
-    problem.steps = (0..kfs.len() - 1)
-        .map(|k| {
-            if gap_steps[k] {
-                steps::gap_step(&kfs[k], &kfs[k + 1], k)
-            } else {
-                steps::step(&kfs[k], &kfs[k + 1], k, scales[k], &odometry, gyro.as_ref())
-            }
-        })
-        .collect();
+    problem.steps = steps::odometry_steps(kfs, &gap_steps, &scales, &odometry, gyro.as_ref());
     let driven = driven_m(kfs);
     let stretches_where = |flags: &dyn Fn(usize) -> bool| -> Vec<Stretch> {
         (0..kfs.len() - 1)

@@ -182,6 +182,34 @@ pub fn step(
     }
 }
 
+/// Per step (keyframe `k` → `k + 1`), whether it crosses a gap `(from_s, to_s)` in the
+/// odometry log.
+pub fn gap_steps(kfs: &[Keyframe], gaps: &[(f64, f64)]) -> Vec<bool> {
+    kfs.windows(2)
+        .map(|w| gaps.iter().any(|g| g.1 > w[0].t_s && g.0 < w[1].t_s))
+        .collect()
+}
+
+/// Every keyframe's step to the next: [`step`] with its `scales[k]`, or [`gap_step`] across
+/// a gap in the odometry (`gap_steps[k]`).
+pub fn odometry_steps(
+    kfs: &[Keyframe],
+    gap_steps: &[bool],
+    scales: &[f64],
+    odometry: &OdometryNoise,
+    gyro: Option<&GyroHeading>,
+) -> Vec<Relative> {
+    (0..kfs.len().saturating_sub(1))
+        .map(|k| {
+            if gap_steps[k] {
+                gap_step(&kfs[k], &kfs[k + 1], k)
+            } else {
+                step(&kfs[k], &kfs[k + 1], k, scales[k], odometry, gyro)
+            }
+        })
+        .collect()
+}
+
 /// 1σ of a step across a gap in the odometry: along (m), across (m), heading (rad). The
 /// step is then the localiser's (which coasted across the gap and found the landmarks
 /// again), held loosely: the landmarks and the scan matches place the keyframes.
