@@ -50,7 +50,7 @@ fn write(words: [u32; WORDS]) {
 pub struct LastScan {
     /// The pose, world frame: x, y metres, θ radians.
     pub pose: Pose2,
-    /// 1σ of the position along its less certain axis, metres.
+    /// 1σ of the position, the larger of x's and y's (world frame), metres.
     pub sigma_xy_m: f32,
     /// 1σ of the heading, radians.
     pub sigma_theta_rad: f32,
