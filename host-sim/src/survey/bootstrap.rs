@@ -35,7 +35,6 @@ use loc_core::landmark::{LandmarkShape, Profile};
 use loc_core::map::{LandmarkPlacement, TunnelMap, WallSide, MAX_LANDMARK_OFFSET_M};
 use loc_core::strip::PointLabel;
 use rayon::prelude::*;
-use serde::Serialize;
 
 use super::graph::{self, Problem, Relative};
 use super::keyframes::{self, Keyframe};
@@ -85,7 +84,7 @@ const WALL_LINE_STEP_M: f64 = 1.0;
 const WALL_EXTENSION_M: f64 = 20.0;
 
 /// One landmark of the drive's own map.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FoundLandmark {
     /// Index in the map (the order the drive first saw them): what `--anchor` names.
     pub index: usize,
