@@ -4,7 +4,9 @@
 //! [`crate::controller::Controller::take`]): no large value is ever built on the stack.
 
 use loc_core::geometry::{Point2, Segment};
-use loc_core::map::{LandmarkBase, MapError, MapHit, MapImage, MapQuery, RayHit};
+use loc_core::map::{
+    LandmarkBase, MapError, MapHit, MapImage, MapQuery, RayHit, WallEnd, WallEndAt, WallSide,
+};
 
 /// A map image opened once for the program's life (the map flash region does not move).
 /// Until it is opened every query answers `None` (and a localiser on it sees no map).
@@ -73,5 +75,10 @@ impl MapQuery for FlashMap {
     #[inline]
     fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
         self.image.get()?.landmark_base(id)
+    }
+
+    #[inline]
+    fn wall_end(&self, wall: WallSide, at: WallEndAt) -> Option<WallEnd> {
+        self.image.get()?.wall_end(wall, at)
     }
 }

@@ -86,6 +86,9 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
             patch_length_m: (2.0 * scenario.tunnel.roughness_correlation_m as f32).max(0.1),
         }
     };
+    // A wall's last metre is as rough as the rest (a wall end seen at grazing incidence
+    // moves along with it).
+    cfg.wall_end.wall_roughness_m = scenario.tunnel.roughness_sigma_m as f32;
     cfg
 }
 

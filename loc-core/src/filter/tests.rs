@@ -234,3 +234,61 @@ fn motion_that_is_not_odometry_is_not_scaled() {
     ekf.predict(&step, &OdometryNoise::default()).unwrap();
     assert!((ekf.pose().x_m - x1 - (1.0 + ekf.scale())).abs() < 1e-5);
 }
+
+#[test]
+fn a_fix_along_moves_the_position_and_the_scale_not_the_heading() {
+    // A prior correlated between along (x) and heading, as after driving a bend, with the
+    // odometry's scale correlated with x (metres driven on it).
+    let p0 = Matrix3::new(0.04, 0.0, 0.002, 0.0, 1e-4, 0.0, 0.002, 0.0, 1e-3);
+    let mut ekf = Ekf::with_scale(Pose2::new(10.0, 0.1, 0.05), p0, 0.02).unwrap();
+    for _ in 0..10 {
+        let inc = OdometryIncrement {
+            dx_m: 1.0,
+            dy_m: 0.0,
+            dtheta_rad: 0.0,
+        };
+        ekf.predict(&inc, &OdometryNoise::default()).unwrap();
+    }
+    let before = ekf;
+    // The wall's end says the vehicle is 0.3 m further along x than predicted, ±5 cm.
+    let report = ekf
+        .update_position_along(
+            Point2::new(1.0, 0.0),
+            0.3,
+            0.05 * 0.05,
+            GateProbability::P999,
+        )
+        .unwrap();
+    assert_eq!(report.observed_directions, 1);
+    let dx = ekf.pose().x_m - before.pose().x_m;
+    assert!(dx > 0.2 && dx < 0.3, "moved {dx}");
+    assert_eq!(ekf.pose().theta_rad, before.pose().theta_rad);
+    assert!(
+        ekf.scale() > before.scale(),
+        "the odometry read short: {}",
+        ekf.scale()
+    );
+    assert!(ekf.covariance()[(0, 0)] < 0.05 * 0.05);
+    assert!(ekf.covariance().cholesky().is_some());
+    // Beyond the gate, or nonsense: rejected, the state unchanged.
+    let mut gated = before;
+    assert!(matches!(
+        gated.update_position_along(Point2::new(1.0, 0.0), 30.0, 1e-4, GateProbability::P999),
+        Err(UpdateRejection::FailedGate { dof: 1, .. })
+    ));
+    assert_eq!(gated, before);
+    for (d, nu, var) in [
+        (Point2::new(f32::NAN, 0.0), 0.1, 1e-3),
+        (Point2::new(0.0, 0.0), 0.1, 1e-3),
+        (Point2::new(1.0, 0.0), f32::INFINITY, 1e-3),
+        (Point2::new(1.0, 0.0), 0.1, 0.0),
+        (Point2::new(1.0, 0.0), 0.1, f32::NAN),
+    ] {
+        let mut bad = before;
+        assert_eq!(
+            bad.update_position_along(d, nu, var, GateProbability::P999),
+            Err(UpdateRejection::NonFinite)
+        );
+        assert_eq!(bad, before);
+    }
+}

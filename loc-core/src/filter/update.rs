@@ -243,3 +243,69 @@ impl Ekf {
         })
     }
 }
+
+impl Ekf {
+    /// Updates with a measurement of the position along the unit world-frame direction
+    /// `direction` (a wall's end seen along the tunnel): `innovation_m` is measured minus
+    /// predicted, `variance_m2` its noise. Position and the odometry's scale are corrected
+    /// (the scale through its correlation with the position: a fix along the travel says
+    /// how far the odometry was off, as a landmark's does); the heading is not. Such a fix
+    /// says next to nothing about the heading (a lever of the wall's distance across, a few
+    /// metres, against a measurement good to centimetres), and where the heading is poorly
+    /// known a biased fix would otherwise be taken out on it. Gated at `gate` with one
+    /// degree of freedom; the Joseph form keeps the covariance exact for the gain used.
+    pub fn update_position_along(
+        &mut self,
+        direction: Point2,
+        innovation_m: f32,
+        variance_m2: f32,
+        gate: GateProbability,
+    ) -> Result<UpdateReport, UpdateRejection> {
+        let n = direction.norm();
+        if !(direction.is_finite()
+            && n > 0.5
+            && innovation_m.is_finite()
+            && variance_m2.is_finite()
+            && variance_m2 > 0.0)
+        {
+            return Err(UpdateRejection::NonFinite);
+        }
+        let h = Vector4::new(direction.x_m / n, direction.y_m / n, 0.0, 0.0);
+        let p = self.covariance;
+        let ph = p * h;
+        let s = h.dot(&ph) + variance_m2;
+        if !(s.is_finite() && s > 0.0) {
+            return Err(UpdateRejection::NonFinite);
+        }
+        let d2 = innovation_m * innovation_m / s;
+        let threshold = gate.threshold(1);
+        if d2 > threshold {
+            return Err(UpdateRejection::FailedGate {
+                mahalanobis_sq: d2,
+                threshold,
+                dof: 1,
+            });
+        }
+        let mut k = ph / s;
+        k.z = 0.0;
+        let dx = k * innovation_m;
+        let i_kh = Matrix4::identity() - k * h.transpose();
+        let p_new = i_kh * p * i_kh.transpose() + k * k.transpose() * variance_m2;
+        if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
+            return Err(UpdateRejection::NonFinite);
+        }
+        self.pose = Pose2::new(
+            self.pose.x_m + dx.x,
+            self.pose.y_m + dx.y,
+            self.pose.theta_rad,
+        );
+        self.scale = (self.scale + dx.w).clamp(-super::MAX_SCALE_ERROR, super::MAX_SCALE_ERROR);
+        self.covariance = p_new;
+        self.condition();
+        Ok(UpdateReport {
+            observed_directions: 1,
+            mahalanobis_sq: d2,
+            correction: [dx.x, dx.y, 0.0],
+        })
+    }
+}

@@ -173,6 +173,15 @@ impl PoseTransform {
         )
     }
 
+    /// Rotates a vector from the parent frame into the child frame (no translation).
+    #[inline]
+    pub fn rotate_inverse(&self, v: Point2) -> Point2 {
+        Point2::new(
+            self.cos * v.x_m + self.sin * v.y_m,
+            -self.sin * v.x_m + self.cos * v.y_m,
+        )
+    }
+
     /// Maps a point from the parent frame into the child frame.
     #[inline]
     pub fn apply_inverse(&self, p: Point2) -> Point2 {

@@ -7,7 +7,7 @@ use super::integrity::IntegrityConfig;
 use super::largest_position_sd_m;
 use super::protection::ProtectionConfig;
 use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
-use crate::matching::{MatchConfig, PrealignConfig};
+use crate::matching::{MatchConfig, PrealignConfig, WallEndConfig};
 use crate::relocalise::RelocaliseConfig;
 use crate::scan::SensorSetup;
 use crate::strip::StripConfig;
@@ -36,6 +36,8 @@ pub struct LocalizerConfig {
     pub prealign: PrealignConfig,
     /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
     pub matching: MatchConfig,
+    /// The along-tunnel position from where the walls end (portals, faces).
+    pub wall_end: WallEndConfig,
     /// Odometry noise model and step limits.
     pub odometry: OdometryNoise,
     /// Motion uncertainty while no odometry arrives ([`super::Localizer::coast`]).
@@ -62,6 +64,7 @@ impl LocalizerConfig {
         min_wall_range_m: 15.0,
         prealign: PrealignConfig::DEFAULT,
         matching: MatchConfig::DEFAULT,
+        wall_end: WallEndConfig::DEFAULT,
         odometry: OdometryNoise::DEFAULT,
         coast: CoastNoise::DEFAULT,
         update: UpdateConfig::DEFAULT,

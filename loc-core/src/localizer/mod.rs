@@ -9,7 +9,9 @@
 //!    ([`crate::matching::prealign_along_tunnel`]) and Hausdorff or PL-ICP matching
 //!    ([`crate::matching::match_scan`]) against the map;
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions;
-//!    then [`Integrity`]: does the map explain the scan's landmarks at the matched pose? A map
+//!    after an accepted one, where the scan sees a stored wall end
+//!    ([`crate::matching::observe_wall_ends`]), a fix of the position along it
+//!    ([`crate::filter::Ekf::update_position_along`]); then [`Integrity`]: does the map explain the scan's landmarks at the matched pose? A map
 //!    that has not lately is not trusted, and the status says so ([`Status::MapUnconfirmed`]).
 //!
 //! Without a pose — at power-up, or once it has declared itself lost (every scan rejected or
@@ -51,8 +53,8 @@ use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, Odo
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
-    match_scan_with_prealign, select_match_points, MatchPoints, MatchResult, MatchWorkspace,
-    PositionPrior,
+    match_scan_with_prealign, observe_wall_ends, select_match_points, MatchPoints, MatchResult,
+    MatchWorkspace, PositionPrior, WallEndMemory,
 };
 use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, LMS511_MAX_BEAMS};
@@ -70,6 +72,10 @@ pub struct Localizer<'m, M: MapQuery> {
     last_strip: Option<StripSummary>,
     last_match: Option<MatchResult>,
     last_integrity: Option<Integrity>,
+    /// Wall ends the last scan's update took ([`crate::matching::observe_wall_ends`]).
+    last_wall_end_fixes: u8,
+    /// When each wall end was last taken.
+    wall_end_memory: WallEndMemory,
     integrity_monitor: IntegrityMonitor,
     /// Distance driven by the predictions so far, metres (for the integrity monitor).
     odometer_m: f32,
@@ -117,6 +123,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             last_strip: None,
             last_match: None,
             last_integrity: None,
+            last_wall_end_fixes: 0,
+            wall_end_memory: WallEndMemory::NEW,
             integrity_monitor: IntegrityMonitor::NEW,
             odometer_m: 0.0,
             relocalising: false,
@@ -383,6 +391,43 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
 
         observer.begin(Stage::Update);
         let updated = ekf.update_with_match(&result, &cfg.update);
+        self.last_wall_end_fixes = 0;
+        if updated.is_ok() {
+            // Where the walls end fixes what the walls alone leave open: the position along
+            // them (after the match, so the footprints sit on walls placed by it).
+            let c = ekf.covariance();
+            let (fixes, memory, odometer_m) = (
+                &mut self.last_wall_end_fixes,
+                &mut self.wall_end_memory,
+                self.odometer_m,
+            );
+            observe_wall_ends(
+                self.map,
+                points,
+                &cfg.sensor,
+                ekf.pose(),
+                [[c.m11, c.m12], [c.m21, c.m22]],
+                &cfg.wall_end,
+                &mut |fix| {
+                    if !memory.is_due(&fix, odometer_m, cfg.wall_end.refix_gaps) {
+                        return;
+                    }
+                    let innovation_m = fix.innovation_m();
+                    if ekf
+                        .update_position_along(
+                            fix.direction,
+                            innovation_m,
+                            fix.variance_m2,
+                            cfg.update.gate,
+                        )
+                        .is_ok()
+                    {
+                        memory.take(&fix, odometer_m);
+                        *fixes = fixes.saturating_add(1);
+                    }
+                },
+            );
+        }
         // Whether the map explains the landmarks decides whether the pose may be called
         // tracked (part of the update stage).
         let integrity = Integrity::check(self.map, points, labels, result.pose, &cfg.integrity);
@@ -543,6 +588,12 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// The stripping summary of the last scan.
     pub fn last_strip(&self) -> Option<&StripSummary> {
         self.last_strip.as_ref()
+    }
+
+    /// How many wall ends the last scan's update took (0–4; see
+    /// [`crate::matching::observe_wall_ends`]).
+    pub fn last_wall_end_fixes(&self) -> u8 {
+        self.last_wall_end_fixes
     }
 
     /// The match of the last scan, if it succeeded (even if the filter then rejected it).

@@ -15,7 +15,8 @@ pub enum Stage {
     /// Landmark pre-alignment and scan-to-map matching
     /// ([`crate::matching::match_scan_with_prealign`]).
     Match,
-    /// The EKF update on the observed directions ([`crate::filter::Ekf::update_with_match`]).
+    /// The EKF update on the observed directions ([`crate::filter::Ekf::update_with_match`]),
+    /// the wall ends' fixes ([`crate::matching::observe_wall_ends`]) and the integrity check.
     Update,
 }
 

@@ -55,7 +55,7 @@ use super::stored;
 use super::wall::{frame_at, polyline_length_m};
 use super::{
     FeatureKind, IndexStats, LandmarkBase, LandmarkPlacement, MapHit, MapQuery, MapSegment, RayHit,
-    StoredMap, WallSide,
+    StoredMap, WallEnd, WallEndAt, WallSide,
 };
 
 /// First four bytes of every map image.
@@ -535,7 +535,7 @@ impl<'a> MapImage<'a> {
     }
 
     /// The segments of one wall, in the direction of increasing chainage (world frame).
-    pub fn wall_segments(&self, side: WallSide) -> impl Iterator<Item = Segment> + '_ {
+    pub fn wall_segments(&self, side: WallSide) -> impl DoubleEndedIterator<Item = Segment> + '_ {
         let l = &self.layout;
         let range = match side {
             WallSide::Left => 0..l.left,
@@ -624,6 +624,10 @@ impl MapQuery for MapImage<'_> {
             placement.wall,
             (first..end).filter_map(|i| self.segment_at(i).map(|s| s.segment)),
         )
+    }
+
+    fn wall_end(&self, wall: WallSide, at: WallEndAt) -> Option<WallEnd> {
+        super::wall::polyline_end(wall, at, self.wall_segments(wall))
     }
 }
 
@@ -798,6 +802,20 @@ mod tests {
                 image.wall_frame_at(side, 17.3),
                 map.wall_frame_at(side, 17.3)
             );
+            for at in WallEndAt::BOTH {
+                let end = map.wall_end(side, at).unwrap();
+                assert_eq!(image.wall_end(side, at), Some(end));
+                // The end is the polyline's end vertex; `outward` points out of the wall.
+                let frame_s = if at == WallEndAt::Start {
+                    0.0
+                } else {
+                    map.wall_length_m(side)
+                };
+                let frame = map.wall_frame_at(side, frame_s).unwrap();
+                assert!(end.point.dist(frame.anchor) < 1e-3, "{end:?} {frame:?}");
+                assert!(end.tangent().dot(frame.tangent) > 0.999);
+                assert!(end.inward_normal().dot(frame.inward_normal) > 0.999);
+            }
         }
         let mut rng = crate::rng::Pcg32::seeded(11);
         for _ in 0..2000 {
@@ -952,5 +970,6 @@ mod tests {
         assert_eq!(image.nearest(Point2::new(0.0, 0.0), 10.0), None);
         assert_eq!(image.raycast(Point2::new(0.0, 0.0), 0.0, 10.0), None);
         assert_eq!(image.wall_frame_at(WallSide::Left, 0.0), None);
+        assert_eq!(image.wall_end(WallSide::Right, WallEndAt::Finish), None);
     }
 }

@@ -23,7 +23,7 @@ mod wall;
 pub use error::{Capacity, GeometryError, MapError};
 pub use file::{MAP_FORMAT_VERSION, MAP_HEADER_LEN, MAP_MAGIC};
 pub use image::{MapImage, IMAGE_FORMAT_VERSION, IMAGE_HEADER_LEN, IMAGE_MAGIC};
-pub use query::{FeatureKind, LandmarkBase, MapHit, MapQuery, RayHit};
+pub use query::{FeatureKind, LandmarkBase, MapHit, MapQuery, RayHit, WallEnd, WallEndAt};
 pub use stored::{
     HostMap, IndexStats, LandmarkPlacement, MapBuilder, MapLandmark, MapSegment, StoredMap,
     TunnelMap, DEFAULT_CELL_SIZE_M, MAX_LANDMARK_OFFSET_M,

@@ -68,6 +68,50 @@ impl LandmarkBase {
     }
 }
 
+/// Which end of a wall's polyline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WallEndAt {
+    /// Its first vertex (the smallest chainage).
+    Start,
+    /// Its last vertex (the largest chainage).
+    Finish,
+}
+
+impl WallEndAt {
+    /// Both ends, start first.
+    pub const BOTH: [WallEndAt; 2] = [WallEndAt::Start, WallEndAt::Finish];
+}
+
+/// Where a wall's polyline stops, world frame: the tunnel's portal, its face, or the edge
+/// of the surveyed stretch. Past it the map claims no wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallEnd {
+    /// The wall.
+    pub wall: WallSide,
+    /// Which end.
+    pub at: WallEndAt,
+    /// The end vertex, world frame, metres.
+    pub point: Point2,
+    /// Unit vector along the wall pointing out of it past the end (the last segment's
+    /// direction at the finish, the first's reversed at the start), world frame.
+    pub outward: Point2,
+}
+
+impl WallEnd {
+    /// The wall's unit tangent at the end in the direction of increasing chainage.
+    pub fn tangent(&self) -> Point2 {
+        match self.at {
+            WallEndAt::Start => self.outward.scale(-1.0),
+            WallEndAt::Finish => self.outward,
+        }
+    }
+
+    /// The wall's unit normal into the tunnel at the end.
+    pub fn inward_normal(&self) -> Point2 {
+        self.wall.inward_normal(self.tangent())
+    }
+}
+
 /// The queries the estimator makes against a map. All inputs and outputs are in the world
 /// frame, metres and radians. Implementations must be bounded in time (a spatial index, not
 /// a scan of the whole map) and must never panic, whatever the input (NaN included: a
@@ -99,6 +143,14 @@ pub trait MapQuery {
     /// list its landmarks). Bounded in time: a table lookup.
     fn landmark_base(&self, id: u16) -> Option<LandmarkBase> {
         let _ = id;
+        None
+    }
+
+    /// Where wall `wall`'s polyline starts or finishes ([`WallEnd`]); `None` for an empty
+    /// wall, a degenerate end segment, or a map that does not list its walls. Bounded in
+    /// time: a table lookup.
+    fn wall_end(&self, wall: WallSide, at: WallEndAt) -> Option<WallEnd> {
+        let _ = (wall, at);
         None
     }
 }

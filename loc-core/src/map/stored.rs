@@ -8,7 +8,7 @@ use super::error::{Capacity, GeometryError, MapError};
 use super::grid::{GridView, SparseGrid};
 use super::search;
 use super::wall::{frame_at, polyline_length_m, WallSide};
-use super::{FeatureKind, LandmarkBase, MapHit, MapQuery, RayHit};
+use super::{FeatureKind, LandmarkBase, MapHit, MapQuery, RayHit, WallEnd, WallEndAt};
 
 /// Side length of the index cells unless the builder sets another, metres. 2 m: a 5 m
 /// tunnel cross-section spans ~3 cells, a cell holds 1–3 wall segments sampled every
@@ -486,6 +486,10 @@ impl<const SEGMENTS: usize, const LANDMARKS: usize, const CELLS: usize, const CE
         let count = usize::from(l.segment_count);
         let segments = self.segments.get(first..first.checked_add(count)?)?;
         landmark_base(l.placement.wall, segments.iter().map(|s| s.segment))
+    }
+
+    fn wall_end(&self, wall: WallSide, at: WallEndAt) -> Option<WallEnd> {
+        super::wall::polyline_end(wall, at, self.wall_segments(wall).iter().map(|s| s.segment))
     }
 }
 

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::{Point2, Segment};
 use crate::landmark::WallFrame;
 
-use super::FeatureKind;
+use super::{FeatureKind, WallEnd, WallEndAt};
 
 /// One of the tunnel's two walls. Both wall polylines run in the direction of increasing
 /// chainage; the left wall is on the left looking that way.
@@ -56,6 +56,33 @@ impl WallSide {
             _ => None,
         }
     }
+}
+
+/// The start or finish of a wall polyline given as consecutive segments; `None` when it
+/// is empty or its end segment has no length.
+pub(crate) fn polyline_end(
+    wall: WallSide,
+    at: WallEndAt,
+    mut segments: impl DoubleEndedIterator<Item = Segment>,
+) -> Option<WallEnd> {
+    let (point, from) = match at {
+        WallEndAt::Start => {
+            let s = segments.next()?;
+            (s.a, s.b)
+        }
+        WallEndAt::Finish => {
+            let s = segments.next_back()?;
+            (s.b, s.a)
+        }
+    };
+    let d = point.sub(from);
+    let len = d.norm();
+    (len > 1e-6 && point.is_finite() && len.is_finite()).then(|| WallEnd {
+        wall,
+        at,
+        point,
+        outward: d.scale(1.0 / len),
+    })
 }
 
 /// Length of a wall polyline given as consecutive segments, metres.

@@ -68,6 +68,7 @@ mod information;
 mod patches;
 mod points;
 mod prealign;
+mod wall_end;
 
 pub use association::{
     associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
@@ -84,6 +85,9 @@ pub use information::{
 pub use patches::{PatchSums, RoughnessModel, PATCHES_PER_SIDE};
 pub use points::{select_match_points, MatchPoints, SelectionCounts};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
+pub use wall_end::{
+    observe_wall_ends, WallEndConfig, WallEndFix, WallEndMemory, MAX_WALL_END_FIXES,
+};
 
 use core::fmt;
 
