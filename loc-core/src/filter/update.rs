@@ -289,8 +289,9 @@ impl Ekf {
         let mut k = ph / s;
         k.z = 0.0;
         let dx = k * innovation_m;
-        let i_kh = Matrix4::identity() - k * h.transpose();
-        let p_new = i_kh * p * i_kh.transpose() + k * k.transpose() * variance_m2;
+        // The Joseph form `(I − k·hᵀ)·P·(I − k·hᵀ)ᵀ + k·r·kᵀ`, exact for this gain (it is not
+        // the optimal one), expanded for a scalar measurement: three outer products.
+        let p_new = p - k * ph.transpose() - ph * k.transpose() + k * k.transpose() * s;
         if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
             return Err(UpdateRejection::NonFinite);
         }

@@ -246,7 +246,9 @@ impl<'a> Beams<'a> {
         })
     }
 
-    /// Vehicle-frame unit direction of beam `i`.
+    /// Vehicle-frame unit direction of beam `i`. Not inlined: `sin_cos` inlined at each of
+    /// its callers cost the firmware kilobytes of flash.
+    #[inline(never)]
     fn direction(&self, i: i32) -> Point2 {
         let (s, c) = math::sin_cos(self.angle0_rad + i as f32 * self.step_rad + self.mount_rad);
         Point2::new(c, s)
@@ -344,6 +346,7 @@ fn variance_along(p: &[[f32; 2]; 2], v: Point2) -> f32 {
 /// One stored end: `None` unless the scan sees the wall stop near it and that says
 /// something the pose does not already know. The cheap tests come first (most scans of a
 /// tracked vehicle stop at them).
+#[inline(never)]
 fn observe_one<M: MapQuery + ?Sized>(
     map: &M,
     beams: &Beams<'_>,
