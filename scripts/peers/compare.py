@@ -165,7 +165,15 @@ def table(names, results):
                     f"{r['across_rms_mm']:.2f} | {r['heading_rms_mrad']:.3f} | {r['max_error_mm']:.1f} | {r['ms_per_scan']:.3f} |"
                 )
         core = results[(name, "loc-core", "initial")]
-        peers = {l: results[(name, l, s)] for l in labels[1:] for s in ["initial", "truth"] if (name, l, s) in results}
+        # Every peer from both starts (keyed by both: keyed by the peer alone, the truth
+        # start's result replaced the initial start's, and a peer that did better from the
+        # recording's initial pose was not counted).
+        peers = {
+            (l, s): results[(name, l, s)]
+            for l in labels[1:]
+            for s in ["initial", "truth"]
+            if (name, l, s) in results
+        }
         if not peers:
             continue
         best_pos = min(r["position_rms_mm"] for r in peers.values())
