@@ -67,7 +67,9 @@ pub struct WallEndConfig {
     /// Gaps between the two footprints wider than this give no measurement, metres.
     pub max_gap_m: f32,
     /// An end is taken again once the vehicle has moved by this many of its gaps since it
-    /// was last taken ([`WallEndMemory`]).
+    /// was last taken ([`WallEndMemory`]). On bare `paper-10m` (1 m/s, 25 Hz) a quarter
+    /// lets every scan's fix in while the vehicle moves: 32 / 25 / 25 mm along RMS, within
+    /// 1.7 σ; one per whole gap 60 / 43 / 38 mm.
     pub refix_gaps: f32,
     /// Ends with a stored landmark within this distance are not looked for, metres: the
     /// landmark's profile, not the wall's, then ends there.
@@ -91,9 +93,7 @@ impl WallEndConfig {
         landmark_clearance_m: 1.5,
         refix_gaps: 0.25,
     };
-}
 
-impl WallEndConfig {
     /// Whether a localiser can run with it: every distance, angle and factor finite and
     /// not negative (what a configuration record must hold).
     pub fn is_usable(&self) -> bool {
@@ -151,8 +151,8 @@ impl WallEndFix {
 
 /// When each wall end was last taken by the filter. Successive scans of a slow or standing
 /// vehicle see an end between the same two beams, so their errors are one error, not
-/// many: an end is due again once the vehicle has moved by its gap (the end then falls
-/// elsewhere between the footprints).
+/// many: an end is due again once the vehicle has moved by a part of its gap
+/// ([`WallEndConfig::refix_gaps`]; the end then falls elsewhere between the footprints).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WallEndMemory {
     /// Odometer reading (metres driven) at each end's last fix: left start, left finish,
@@ -182,7 +182,7 @@ impl WallEndMemory {
     pub fn is_due(&self, fix: &WallEndFix, odometer_m: f32, refix_gaps: f32) -> bool {
         match self.taken_at_m.get(Self::slot(fix)).copied().flatten() {
             None => true,
-            // Not `<`: a non-finite reading leaves the end due (the gate judges the fix).
+            // A non-finite odometer leaves the end due (the filter's gate judges the fix).
             Some(at_m) => {
                 math::abs(odometer_m - at_m) >= refix_gaps * fix.gap_m || !odometer_m.is_finite()
             }
