@@ -11,8 +11,9 @@
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions;
 //!    after an accepted one, where the scan sees a stored wall end
 //!    ([`crate::matching::observe_wall_ends`]), a fix of the position along it
-//!    ([`crate::filter::Ekf::update_position_along`]); then [`Integrity`]: does the map explain the scan's landmarks at the matched pose? A map
-//!    that has not lately is not trusted, and the status says so ([`Status::MapUnconfirmed`]).
+//!    ([`crate::filter::Ekf::update_position_along`]); then [`Integrity`]: does the map
+//!    explain the scan's landmarks at the matched pose? A map that has not lately is not
+//!    trusted, and the status says so ([`Status::MapUnconfirmed`]).
 //!
 //! Without a pose — at power-up, or once it has declared itself lost (every scan rejected or
 //! the map unconfirmed over [`crate::relocalise::RelocaliseConfig::lost_after_m`], or
