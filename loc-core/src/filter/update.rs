@@ -203,15 +203,8 @@ impl Ekf {
         if !d2.is_finite() {
             return Err(UpdateRejection::NonFinite);
         }
-        let threshold = config.gate.threshold(obs.rank);
         let dof = u8::try_from(obs.rank).unwrap_or(3);
-        if d2 > threshold {
-            return Err(UpdateRejection::FailedGate {
-                mahalanobis_sq: d2,
-                threshold,
-                dof,
-            });
-        }
+        gate_check(d2, config.gate, dof)?;
         let mut k = p * h.transpose() * s_inv;
         if let Some(d) = unobserved_direction.filter(|d| d.is_finite() && d.norm_sq() > 0.5) {
             let e = Vector4::new(d.x_m, d.y_m, 0.0, 0.0) / d.norm();
@@ -224,6 +217,17 @@ impl Ekf {
         let dx = k * nu;
         let i_kh = Matrix4::identity() - k * h;
         let p_new = i_kh * p * i_kh.transpose() + k * r * k.transpose();
+        self.apply(dx, p_new)?;
+        Ok(UpdateReport {
+            observed_directions: dof,
+            mahalanobis_sq: d2,
+            correction: [dx.x, dx.y, dx.z],
+        })
+    }
+
+    /// Takes an update's state correction `dx` and new covariance (both checked finite
+    /// first: otherwise nothing changes).
+    fn apply(&mut self, dx: Vector4<f32>, p_new: Matrix4<f32>) -> Result<(), UpdateRejection> {
         if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
             return Err(UpdateRejection::NonFinite);
         }
@@ -236,12 +240,22 @@ impl Ekf {
         self.scale = (self.scale + dx.w).clamp(-super::MAX_SCALE_ERROR, super::MAX_SCALE_ERROR);
         self.covariance = p_new;
         self.condition();
-        Ok(UpdateReport {
-            observed_directions: dof,
-            mahalanobis_sq: d2,
-            correction: [dx.x, dx.y, dx.z],
-        })
+        Ok(())
     }
+}
+
+/// The chi-square gate: `Err(FailedGate)` when `d2` (squared Mahalanobis distance with
+/// `dof` degrees of freedom) exceeds `gate`'s threshold.
+fn gate_check(d2: f32, gate: GateProbability, dof: u8) -> Result<(), UpdateRejection> {
+    let threshold = gate.threshold(usize::from(dof));
+    if d2 > threshold {
+        return Err(UpdateRejection::FailedGate {
+            mahalanobis_sq: d2,
+            threshold,
+            dof,
+        });
+    }
+    Ok(())
 }
 
 impl Ekf {
@@ -278,31 +292,14 @@ impl Ekf {
             return Err(UpdateRejection::NonFinite);
         }
         let d2 = innovation_m * innovation_m / s;
-        let threshold = gate.threshold(1);
-        if d2 > threshold {
-            return Err(UpdateRejection::FailedGate {
-                mahalanobis_sq: d2,
-                threshold,
-                dof: 1,
-            });
-        }
+        gate_check(d2, gate, 1)?;
         let mut k = ph / s;
         k.z = 0.0;
         let dx = k * innovation_m;
         // The Joseph form `(I − k·hᵀ)·P·(I − k·hᵀ)ᵀ + k·r·kᵀ`, exact for this gain (it is not
         // the optimal one), expanded for a scalar measurement: three outer products.
         let p_new = p - k * ph.transpose() - ph * k.transpose() + k * k.transpose() * s;
-        if !dx.iter().all(|v| v.is_finite()) || !p_new.iter().all(|v| v.is_finite()) {
-            return Err(UpdateRejection::NonFinite);
-        }
-        self.pose = Pose2::new(
-            self.pose.x_m + dx.x,
-            self.pose.y_m + dx.y,
-            self.pose.theta_rad,
-        );
-        self.scale = (self.scale + dx.w).clamp(-super::MAX_SCALE_ERROR, super::MAX_SCALE_ERROR);
-        self.covariance = p_new;
-        self.condition();
+        self.apply(dx, p_new)?;
         Ok(UpdateReport {
             observed_directions: 1,
             mahalanobis_sq: d2,

@@ -396,7 +396,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         if updated.is_ok() {
             // Where the walls end fixes what the walls alone leave open: the position along
             // them (after the match, so the footprints sit on walls placed by it).
-            let c = ekf.covariance();
+            let prior = PositionPrior::from_covariance(&ekf.covariance());
             let (fixes, memory, odometer_m) = (
                 &mut self.last_wall_end_fixes,
                 &mut self.wall_end_memory,
@@ -407,7 +407,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
                 points,
                 &cfg.sensor,
                 ekf.pose(),
-                [[c.m11, c.m12], [c.m21, c.m22]],
+                &prior,
                 &cfg.wall_end,
                 &mut |fix| {
                     if !memory.is_due(&fix, odometer_m, cfg.wall_end.refix_gaps) {

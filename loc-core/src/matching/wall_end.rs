@@ -32,6 +32,8 @@ use crate::map::{MapQuery, WallEnd, WallEndAt, WallSide};
 use crate::math;
 use crate::scan::{ScanPoint, SensorSetup};
 
+use super::PositionPrior;
+
 /// Most wall ends one scan can measure (each wall's start and finish).
 pub const MAX_WALL_END_FIXES: usize = 4;
 
@@ -304,15 +306,15 @@ impl EndLine {
 
 /// Looks for every stored wall end near the pose in the scan and calls `found` with each
 /// one seen (at most [`MAX_WALL_END_FIXES`]). `points` are the scan's valid beams in beam
-/// order (vehicle frame), `pose` the estimate (world frame) and `position_covariance` its
-/// 2×2 position block (m²), which sets the search window and whether an end still has
-/// something to say.
+/// order (vehicle frame), `pose` the estimate (world frame) and `prior` its position's
+/// uncertainty (the one the matcher was given), which sets the search window and whether an
+/// end still has something to say.
 pub fn observe_wall_ends<M: MapQuery + ?Sized>(
     map: &M,
     points: &[ScanPoint],
     sensor: &SensorSetup,
     pose: Pose2,
-    position_covariance: [[f32; 2]; 2],
+    prior: &PositionPrior,
     config: &WallEndConfig,
     found: &mut dyn FnMut(WallEndFix),
 ) {
@@ -327,20 +329,11 @@ pub fn observe_wall_ends<M: MapQuery + ?Sized>(
             let Some(end) = map.wall_end(wall, at) else {
                 continue;
             };
-            if let Some(fix) = observe_one(map, &beams, &end, pose, position_covariance, config) {
+            if let Some(fix) = observe_one(map, &beams, &end, pose, prior, config) {
                 found(fix);
             }
         }
     }
-}
-
-/// `vᵀ·P·v` for the 2×2 `p`.
-fn variance_along(p: &[[f32; 2]; 2], v: Point2) -> f32 {
-    let [[a, b], [c, d]] = *p;
-    math::max(
-        v.x_m * (a * v.x_m + b * v.y_m) + v.y_m * (c * v.x_m + d * v.y_m),
-        0.0,
-    )
 }
 
 /// One stored end: `None` unless the scan sees the wall stop near it and that says
@@ -352,7 +345,7 @@ fn observe_one<M: MapQuery + ?Sized>(
     beams: &Beams<'_>,
     end: &WallEnd,
     pose: Pose2,
-    position_covariance: [[f32; 2]; 2],
+    prior: &PositionPrior,
     config: &WallEndConfig,
 ) -> Option<WallEndFix> {
     let tf = pose.transform();
@@ -367,7 +360,7 @@ fn observe_one<M: MapQuery + ?Sized>(
         return None;
     }
     let min_sin = math::sin(config.min_grazing_rad);
-    let sd_along = math::sqrt(variance_along(&position_covariance, end.outward));
+    let sd_along = prior.sd_along_m(end.outward);
     // The end's stored position and the wall's shape over its last gap are the same for
     // every scan: errors no number of fixes averages away (the roughness turned along by
     // the grazing sight line, `1/tan g`). Below them an end has nothing to add (with
@@ -545,13 +538,17 @@ mod tests {
         cov: [[f32; 2]; 2],
         config: &WallEndConfig,
     ) -> heapless::Vec<WallEndFix, MAX_WALL_END_FIXES> {
+        let [[a, b], [c, d]] = cov;
+        let prior = &PositionPrior::from_covariance(&nalgebra::Matrix3::new(
+            a, b, 0.0, c, d, 0.0, 0.0, 0.0, 0.0,
+        ));
         let mut out = heapless::Vec::new();
         observe_wall_ends(
             map,
             scan.points(),
             &setup(),
             estimate,
-            cov,
+            prior,
             config,
             &mut |f| {
                 out.push(f).unwrap();
