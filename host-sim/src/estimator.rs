@@ -72,19 +72,14 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
     // simulation must not claim infinite precision).
     cfg.matching.range_noise_sigma_m = (scenario.lidar.range_noise_m as f32).max(0.003);
     // The walls as rough as the scenario makes them (on a vehicle: as the survey measured
-    // them): points on one stretch share its offset from the smooth map. Not in a tunnel
-    // without landmarks: there the model made the bare kilometre's lateral RMS 32 mm
-    // instead of 21 mm (the along-tunnel error reaches metres, and the model's equal
-    // weight per stretch of wall gives the far, misplaced stored walls more say; switching
-    // it off only while the along position is lost did worse, 41 mm). Not understood
-    // further yet: an open point of the accuracy work.
-    cfg.matching.roughness = if scenario.landmarks.model == "none" {
-        RoughnessModel::SMOOTH
-    } else {
-        RoughnessModel {
-            sigma_m: scenario.tunnel.roughness_sigma_m as f32,
-            patch_length_m: (2.0 * scenario.tunnel.roughness_correlation_m as f32).max(0.1),
-        }
+    // them): points on one stretch share its offset from the smooth map. With or without
+    // landmarks: without, the position along the tunnel comes from the curves seen ahead,
+    // fixed by a few stretches of wall, and only the model says how few (without it the
+    // 200 m of `tunnel-1km` were 5–8 σ off along; it once made the bare lateral worse, when
+    // the stored walls far ahead were matched at a held, metres-wrong position along).
+    cfg.matching.roughness = RoughnessModel {
+        sigma_m: scenario.tunnel.roughness_sigma_m as f32,
+        patch_length_m: (2.0 * scenario.tunnel.roughness_correlation_m as f32).max(0.1),
     };
     // A wall's last metre is as rough as the rest (a wall end seen at grazing incidence
     // moves along with it).

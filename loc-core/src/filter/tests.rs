@@ -164,6 +164,46 @@ fn projected_gain_holds_along_position_despite_correlation() {
     assert!(ekf.covariance().cholesky().is_some());
 }
 
+/// A direction observed weakly (a curve seen far ahead fixing the position along the
+/// tunnel to 0.2 m) is the same fix scan after scan: the filter takes it while it improves
+/// on what the filter knows, and otherwise holds it as it would an unobserved one.
+#[test]
+fn a_weak_direction_is_taken_only_where_the_match_knows_it_better() {
+    let weak = diag(25.0, 1e6, 1e7);
+    assert!(25.0 < obs().weak_below_per_m2 && 25.0 > obs().min_information_per_m2);
+    let cfg = UpdateConfig::default();
+    let mut ekf = Ekf::new(Pose2::new(10.5, 0.01, 0.0), diag(1.0, 0.01, 1e-4)).unwrap();
+    // The filter knows x to 1 m, the match to 0.2 m: taken.
+    let r = ekf
+        .update(Pose2::new(10.0, 0.0, 0.0), &weak, None, &obs(), &cfg)
+        .unwrap();
+    assert_eq!(r.observed_directions, 3);
+    let var_x = ekf.covariance()[(0, 0)];
+    assert!((ekf.pose().x_m - 10.02).abs() < 0.01, "{:?}", ekf.pose());
+    assert!((var_x - 0.04 / 1.04).abs() < 2e-3, "{var_x}");
+    // The same fix again (it shares its errors with the first): held, x and its variance
+    // untouched, the lateral position and heading still updated.
+    let before = ekf.pose();
+    let r = ekf
+        .update(Pose2::new(10.1, 0.0, 0.0), &weak, None, &obs(), &cfg)
+        .unwrap();
+    assert_eq!(r.observed_directions, 2);
+    assert!(
+        (ekf.pose().x_m - before.x_m).abs() < 1e-5,
+        "{:?}",
+        ekf.pose()
+    );
+    assert!((ekf.covariance()[(0, 0)] - var_x).abs() < 1e-6);
+    // A fix four times as good as the filter's knowledge is taken.
+    let better = diag(100.0 / var_x, 1e6, 1e7);
+    let r = ekf
+        .update(Pose2::new(10.0, 0.0, 0.0), &better, None, &obs(), &cfg)
+        .unwrap();
+    assert_eq!(r.observed_directions, 3);
+    assert!(ekf.covariance()[(0, 0)] < 0.9 * var_x);
+    assert!(ekf.covariance().cholesky().is_some());
+}
+
 /// Full-pose fixes every `step_m` of a straight drive whose odometry reads `odometry_scale`
 /// times the truth; returns the filter and the true pose at the end.
 fn drive_with_fixes(odometry_scale: f32, metres: usize, step_m: f32) -> (Ekf, Pose2) {

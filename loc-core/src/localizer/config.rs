@@ -1,10 +1,6 @@
-//! [`LocalizerConfig`]: everything a [`super::Localizer`] is tuned by, and the wall range it
-//! derives from the prediction's uncertainty.
-
-use nalgebra::Matrix3;
+//! [`LocalizerConfig`]: everything a [`super::Localizer`] is tuned by.
 
 use super::integrity::IntegrityConfig;
-use super::largest_position_sd_m;
 use super::protection::ProtectionConfig;
 use crate::filter::{CoastNoise, OdometryNoise, UpdateConfig};
 use crate::matching::{MatchConfig, PrealignConfig, WallEndConfig};
@@ -23,15 +19,6 @@ pub struct LocalizerConfig {
     pub strip: StripConfig,
     /// Wall points kept for matching (landmark points are all kept).
     pub max_wall_points: u16,
-    /// Wall points farther than `wall_range_scale_m2 / σ` are not matched, where σ is the
-    /// predicted position's largest standard deviation (metres; in a smooth tunnel the
-    /// along-tunnel one): with the position along the tunnel uncertain by σ, the stored
-    /// walls far ahead may bend where the scanned ones do not (or run straight where they
-    /// bend), and those points bias the lateral and heading fit. m².
-    pub wall_range_scale_m2: f32,
-    /// The wall range above never drops below this, metres (near walls fix the lateral
-    /// position and the heading).
-    pub min_wall_range_m: f32,
     /// Along-tunnel pre-alignment on landmarks.
     pub prealign: PrealignConfig,
     /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
@@ -60,8 +47,6 @@ impl LocalizerConfig {
         sensor: SensorSetup::DEFAULT,
         strip: StripConfig::DEFAULT,
         max_wall_points: 100,
-        wall_range_scale_m2: 10.0,
-        min_wall_range_m: 15.0,
         prealign: PrealignConfig::DEFAULT,
         matching: MatchConfig::DEFAULT,
         wall_end: WallEndConfig::DEFAULT,
@@ -86,17 +71,5 @@ impl LocalizerConfig {
         let mut c = Self::default();
         c.matching.matcher = matcher;
         c
-    }
-
-    /// How far out wall points are matched for a prediction with position covariance
-    /// `covariance` (see [`LocalizerConfig::wall_range_scale_m2`]), metres;
-    /// `f32::INFINITY` when the prediction is certain (or the covariance is not finite).
-    pub fn wall_range_m(&self, covariance: &Matrix3<f32>) -> f32 {
-        let sd_m = largest_position_sd_m(covariance);
-        if sd_m > 0.0 && sd_m.is_finite() {
-            crate::math::max(self.wall_range_scale_m2 / sd_m, self.min_wall_range_m)
-        } else {
-            f32::INFINITY
-        }
     }
 }

@@ -357,13 +357,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let labels = self.labels.get(..n).unwrap_or_default();
 
         observer.begin(Stage::Select);
-        select_match_points(
-            points,
-            labels,
-            cfg.max_wall_points,
-            cfg.wall_range_m(&ekf.covariance()),
-            &mut self.match_points,
-        );
+        select_match_points(points, labels, cfg.max_wall_points, &mut self.match_points);
         observer.end(Stage::Select);
 
         observer.begin(Stage::Match);
@@ -640,7 +634,6 @@ pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Vector3;
 
     #[test]
     fn memory_is_what_the_docs_say() {
@@ -652,30 +645,5 @@ mod tests {
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
         assert_eq!(workspace, 512 * 56 + 512 * 8 + 4);
-    }
-
-    #[test]
-    fn wall_range_shrinks_with_the_position_uncertainty() {
-        let cfg = LocalizerConfig::default();
-        let cov = |sx: f32, sy: f32| Matrix3::from_diagonal(&Vector3::new(sx * sx, sy * sy, 1e-4));
-        // Tracking (1 cm): no practical limit; 0.5 m along: 20 m; metres: the floor.
-        assert!(cfg.wall_range_m(&cov(0.01, 0.005)) >= 1000.0);
-        assert!((cfg.wall_range_m(&cov(0.5, 0.01)) - 20.0).abs() < 1e-3);
-        assert_eq!(cfg.wall_range_m(&cov(5.0, 0.01)), cfg.min_wall_range_m);
-        // The largest deviation counts, whatever the axes (a tunnel along the diagonal).
-        let mut rotated = cov(0.5, 0.01);
-        let (c, s) = (
-            core::f32::consts::FRAC_1_SQRT_2,
-            core::f32::consts::FRAC_1_SQRT_2,
-        );
-        let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-        rotated = r * rotated * r.transpose();
-        assert!((largest_position_sd_m(&rotated) - 0.5).abs() < 1e-4);
-        // No information: no limit, never NaN.
-        assert_eq!(cfg.wall_range_m(&Matrix3::zeros()), f32::INFINITY);
-        assert_eq!(
-            cfg.wall_range_m(&Matrix3::from_element(f32::NAN)),
-            f32::INFINITY
-        );
     }
 }

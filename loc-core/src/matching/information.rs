@@ -90,6 +90,12 @@ fn valid_scale(rotation_scale_m: f32) -> f32 {
 pub struct Observability {
     /// Least information of an observed direction, m⁻² (scaled state).
     pub min_information_per_m2: f32,
+    /// An observed direction with less information than this, m⁻² (scaled state), is
+    /// *weakly* observed: what fixes it is a few features every scan of a stretch shares (a
+    /// curve ahead seen over tens of metres of straight), so their roughness and the map's
+    /// errors are the same in successive matches and the filter must not average them (see
+    /// [`crate::filter::UpdateConfig::weak_refix_ratio`]).
+    pub weak_below_per_m2: f32,
     /// `L`, metres: how a rotation counts against a translation.
     pub rotation_scale_m: f32,
 }
@@ -126,6 +132,53 @@ impl ObservableSubspace {
     /// `S⁻¹ = diag(1, 1, L)`: maps state increments to scaled ones.
     pub fn unscale(&self) -> Matrix3<f32> {
         Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, self.rotation_scale_m))
+    }
+
+    /// The observed direction with the least information: its column index and eigenvalue.
+    pub fn weakest(&self) -> Option<(usize, f32)> {
+        self.eigenvalues
+            .iter()
+            .copied()
+            .enumerate()
+            .take(self.rank)
+            .min_by(|a, b| a.1.partial_cmp(&b.1).unwrap_or(core::cmp::Ordering::Equal))
+    }
+
+    /// Column `k` (at most 2) as a state increment `(x_m, y_m, theta_rad)` (`S·v`).
+    pub fn state_direction(&self, k: usize) -> Vector3<f32> {
+        let v = self.scaled_basis.column(k.min(2)).into_owned();
+        Vector3::new(v.x, v.y, v.z / self.rotation_scale_m)
+    }
+
+    /// The same subspace without column `k` (no change when `k` is not observed).
+    pub fn without(&self, k: usize) -> Self {
+        if k >= self.rank {
+            return *self;
+        }
+        let mut out = *self;
+        out.rank = 0;
+        out.scaled_basis = Matrix3::zeros();
+        out.eigenvalues = Vector3::zeros();
+        for (j, (col, &lambda)) in self
+            .scaled_basis
+            .column_iter()
+            .zip(self.eigenvalues.iter())
+            .enumerate()
+            .take(self.rank)
+        {
+            if j == k {
+                continue;
+            }
+            if let (Some(mut c), Some(e)) = (
+                out.scaled_basis.column_iter_mut().nth(out.rank),
+                out.eigenvalues.get_mut(out.rank),
+            ) {
+                c.copy_from(&col);
+                *e = lambda;
+                out.rank += 1;
+            }
+        }
+        out
     }
 }
 
@@ -419,6 +472,28 @@ mod tests {
             }
         }
         eq
+    }
+
+    #[test]
+    fn a_direction_is_dropped_from_the_subspace() {
+        let o = observable_subspace(
+            &Matrix3::from_diagonal(&Vector3::new(3.0, 1e4, 1e5)),
+            1.0,
+            10.0,
+        );
+        assert_eq!(o.rank, 3);
+        let (k, lambda) = o.weakest().unwrap();
+        assert!((lambda - 3.0).abs() < 1e-3);
+        assert!((o.state_direction(k).x.abs() - 1.0).abs() < 1e-5);
+        let d = o.without(k);
+        assert_eq!(d.rank, 2);
+        assert!(d.eigenvalues.iter().take(2).all(|&l| l > 100.0));
+        assert_eq!(d.scaled_basis.column(2).norm(), 0.0);
+        assert_eq!(d.without(2), d);
+        assert_eq!(
+            observable_subspace(&Matrix3::zeros(), 1.0, 10.0).weakest(),
+            None
+        );
     }
 
     #[test]

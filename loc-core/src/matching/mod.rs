@@ -41,7 +41,8 @@
 //! ## What to feed it
 //! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
 //! **decimated subset of wall points** (evenly spread along each wall). The walls carry the
-//! heading and the across-tunnel position; only landmarks carry the along-tunnel position.
+//! heading and the across-tunnel position; landmarks carry the along-tunnel position, and
+//! without them so do, weakly, the far wall points where the tunnel's curvature changes.
 //! Feeding every wall point would drown the landmarks: the K-best trimming would then discard
 //! the (initially misaligned) landmark points first. Decimation also bounds the cost.
 //! Before matching, [`prealign_along_tunnel`] can shift the prediction along the tunnel so that
@@ -57,7 +58,10 @@
 //! smallest eigenvalue of the translation information (heading marginalised) and its
 //! direction in the world. Directions observed by less than `min_information_points` fully
 //! informative points are not moved by the matcher and get a huge variance
-//! ([`UNOBSERVED_VARIANCE`]); the filter does not update them.
+//! ([`UNOBSERVED_VARIANCE`]); the filter does not update them. Directions observed by less
+//! than `weak_information_points` (the position along a bare tunnel from the curve it runs
+//! into, seen from a straight) are weakly observed: the matcher estimates them, the filter
+//! takes them only where they improve on what it knows.
 
 mod association;
 mod fisher;
@@ -204,8 +208,16 @@ pub struct MatchConfig {
     /// Fewest points (and fewest associated inliers) for a match.
     pub min_points: u16,
     /// A direction is observed when its information is at least this many fully
-    /// informative points' worth (eigenvalue of `ΣJᵀJ`, dimensionless).
+    /// informative points' worth (eigenvalue of `ΣJᵀJ`, dimensionless). Low: a curve seen
+    /// ahead at the end of a straight fixes the position along the tunnel to 0.1–0.5 m per
+    /// scan from a few hundredths of a point's worth (points tens of metres past the
+    /// curve's start, where the wall has turned a few hundredths of a radian); below
+    /// [`MatchConfig::weak_information_points`] such a direction is weakly observed.
     pub min_information_points: f32,
+    /// An observed direction with less information than this many points' worth is weakly
+    /// observed ([`Observability::weak_below_per_m2`]): the filter takes it only where the
+    /// match knows it better than the filter does.
+    pub weak_information_points: f32,
     /// Converged when a step moves less than this, metres.
     pub convergence_translation_m: f32,
     /// Converged when a step turns less than this, radians.
@@ -228,7 +240,8 @@ impl MatchConfig {
         range_noise_sigma_m: 0.01,
         roughness: RoughnessModel::SMOOTH,
         min_points: 12,
-        min_information_points: 2.0,
+        min_information_points: 5.0e-4,
+        weak_information_points: 2.0,
         convergence_translation_m: 2.0e-4,
         convergence_rotation_rad: 2.0e-5,
         rotation_scale_m: 10.0,
@@ -251,6 +264,7 @@ impl MatchConfig {
     pub fn observability(&self) -> Observability {
         Observability {
             min_information_per_m2: self.min_information_per_m2(),
+            weak_below_per_m2: self.weak_information_points / self.sigma_sq_m2(),
             rotation_scale_m: self.rotation_scale_m,
         }
     }

@@ -3,7 +3,6 @@
 
 use super::MAX_MATCH_POINTS;
 use crate::geometry::Point2;
-use crate::scan::ScanGeometry;
 use crate::strip::{PointLabel, VehiclePoint};
 
 /// The vehicle-frame points handed to the matcher.
@@ -20,26 +19,19 @@ pub struct SelectionCounts {
     pub unclassified: u16,
 }
 
-/// Fills `out` with every landmark point and at most `max_wall_points` wall points within
-/// `max_wall_range_m` of the vehicle (metres; `f32::INFINITY` for all), spread evenly in x
-/// along each wall and chosen independently of their own noise. When the stripper found neither walls nor landmarks, up to
+/// Fills `out` with every landmark point and at most `max_wall_points` wall points, spread
+/// evenly in x along each wall (out to the farthest the stripper labelled) and chosen
+/// independently of their own noise. When the stripper found neither walls nor landmarks, up to
 /// `max_wall_points` outliers are taken instead (evenly by index), so an unusual scene still
 /// gets matched. `labels[i]` labels `points[i]`; extra entries of either are ignored.
 pub fn select_match_points<P: VehiclePoint>(
     points: &[P],
     labels: &[PointLabel],
     max_wall_points: u16,
-    max_wall_range_m: f32,
     out: &mut MatchPoints,
 ) -> SelectionCounts {
     out.clear();
     let mut counts = SelectionCounts::default();
-    // Wall points beyond the range count as out of range (they are not matched); a range
-    // beyond what an LMS511 measures limits nothing and is not checked.
-    // (NaN limits everything: no wall point is "within" it.)
-    let limited = max_wall_range_m < ScanGeometry::LMS511_MAX_RANGE_M || max_wall_range_m.is_nan();
-    let range_sq = max_wall_range_m * max_wall_range_m;
-    let beyond = |p: Point2| limited && (p.norm_sq() > range_sq || range_sq.is_nan());
     let pairs = || {
         points
             .iter()
@@ -51,7 +43,7 @@ pub fn select_match_points<P: VehiclePoint>(
     let mut span = [(f32::INFINITY, f32::NEG_INFINITY); 2];
     for (p, l) in pairs() {
         match l {
-            PointLabel::LeftWall | PointLabel::RightWall if !beyond(p) => {
+            PointLabel::LeftWall | PointLabel::RightWall => {
                 n_wall += 1;
                 if let Some(s) = span.get_mut(wall_slot(l)) {
                     s.0 = crate::math::min(s.0, p.x_m);
@@ -60,7 +52,7 @@ pub fn select_match_points<P: VehiclePoint>(
             }
             PointLabel::Landmark => n_landmark += 1,
             PointLabel::Outlier => n_outlier += 1,
-            PointLabel::LeftWall | PointLabel::RightWall | PointLabel::OutOfRange => {}
+            PointLabel::OutOfRange => {}
         }
     }
     let wall_budget = usize::from(max_wall_points)
@@ -83,7 +75,7 @@ pub fn select_match_points<P: VehiclePoint>(
             if landmarks < landmark_budget && out.push(p).is_ok() {
                 landmarks += 1;
             }
-        } else if l.is_wall() && walls < wall_budget && !beyond(p) {
+        } else if l.is_wall() && walls < wall_budget {
             let slot = wall_slot(l);
             let (Some(last), Some(&step), Some(pend)) =
                 (last_x.get_mut(slot), step.get(slot), pending.get_mut(slot))
@@ -146,7 +138,7 @@ mod tests {
             *l = PointLabel::Landmark;
         }
         let mut out = MatchPoints::new();
-        let c = select_match_points(&pts, &labels, 40, f32::INFINITY, &mut out);
+        let c = select_match_points(&pts, &labels, 40, &mut out);
         assert_eq!(c.landmark, 20);
         assert!(c.wall <= 40 && c.wall >= 30, "{c:?}");
         assert_eq!(out.len(), usize::from(c.landmark + c.wall));
@@ -174,7 +166,7 @@ mod tests {
             });
             let labels = [PointLabel::RightWall; 900];
             let mut out = MatchPoints::new();
-            select_match_points(&pts, &labels, 100, 30.0, &mut out);
+            select_match_points(&pts, &labels, 100, &mut out);
             for p in &out {
                 // Positive: farther from the sensor than the wall.
                 let off = f64::from(wall_y_m - p.y_m);
@@ -197,29 +189,13 @@ mod tests {
     }
 
     #[test]
-    fn wall_points_beyond_the_range_are_left_out() {
-        let pts: [Point2; 200] = core::array::from_fn(|i| Point2::new(i as f32 * 0.25, 2.5));
-        let labels = [PointLabel::LeftWall; 200];
-        let mut out = MatchPoints::new();
-        let c = select_match_points(&pts, &labels, 200, 20.0, &mut out);
-        assert!(out.iter().all(|p| p.norm() <= 20.0), "{out:?}");
-        assert!(out.iter().any(|p| p.x_m > 19.0));
-        assert_eq!(usize::from(c.wall), out.len());
-        // Beyond the LMS511's reach a range limits nothing; NaN limits everything.
-        let all = select_match_points(&pts, &labels, 200, 80.0, &mut out);
-        assert!(all.wall > c.wall && out.iter().any(|p| p.x_m > 45.0));
-        let none = select_match_points(&pts, &labels, 200, f32::NAN, &mut out);
-        assert_eq!(none.wall, 0);
-    }
-
-    #[test]
     fn falls_back_to_outliers_without_walls() {
         let pts = [Point2::new(1.0, 1.0); 100];
         let labels = [PointLabel::Outlier; 100];
         let mut out = MatchPoints::new();
-        let c = select_match_points(&pts, &labels, 30, f32::INFINITY, &mut out);
+        let c = select_match_points(&pts, &labels, 30, &mut out);
         assert!(c.unclassified >= 25 && c.unclassified <= 30);
-        let c = select_match_points::<Point2>(&[], &[], 30, f32::INFINITY, &mut out);
+        let c = select_match_points::<Point2>(&[], &[], 30, &mut out);
         assert_eq!(c, SelectionCounts::default());
         assert!(out.is_empty());
     }

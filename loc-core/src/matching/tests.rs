@@ -155,7 +155,7 @@ fn guided_with(
     let mut labels = [PointLabel::Outlier; 1141];
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
     let mut sel = MatchPoints::new();
-    select_match_points(&pts, &labels, 100, f32::INFINITY, &mut sel);
+    select_match_points(&pts, &labels, 100, &mut sel);
     let mut ws = MatchWorkspace::new();
     let r = match_scan_with_prealign(
         map,
