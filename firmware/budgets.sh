@@ -20,7 +20,7 @@ sizes() {
 }
 
 echo "building the three boards' controllers (release) ..." >&2
-cargo build --release --quiet --bins 2>&1 >&2 || exit 1
+cargo build --release --quiet --workspace --bins 2>&1 >&2 || exit 1
 CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --quiet --bin controller \
   -p firmware --no-default-features --features board-nucleo-h743zi >&2 || exit 1
 CARGO_TARGET_DIR=$target_dir/stm32f407 cargo build --release --quiet --bin controller \

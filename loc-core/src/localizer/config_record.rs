@@ -96,9 +96,14 @@ impl LocalizerConfig {
         let g = &self.sensor.geometry;
         let m = &self.sensor.mounting;
         let o = &self.odometry;
-        [g.step_rad, g.max_range_m, self.matching.range_noise_sigma_m]
-            .into_iter()
-            .all(positive)
+        [
+            g.step_rad,
+            g.max_range_m,
+            self.matching.range_noise_sigma_m,
+            self.matching.min_information_points,
+        ]
+        .into_iter()
+        .all(positive)
             && [g.start_angle_rad, m.x_m, m.y_m, m.theta_rad]
                 .iter()
                 .all(|v| v.is_finite())
@@ -110,6 +115,8 @@ impl LocalizerConfig {
                 o.scale_sd,
                 o.scale_drift_sd,
                 o.heading_drift_rad_per_m,
+                self.matching.weak_information_points,
+                self.update.weak_refix_ratio,
             ]
             .into_iter()
             .all(non_negative)
@@ -234,6 +241,14 @@ mod tests {
         // A NaN noise behind a valid CRC: refused.
         let mut bad = custom();
         bad.matching.range_noise_sigma_m = f32::NAN;
+        let n = bad.to_record(&mut buf).unwrap();
+        assert_eq!(
+            LocalizerConfig::from_record(&buf[..n]),
+            Err(ConfigRecordError::Corrupt)
+        );
+        // Nor a weak direction's ratio that compares as nothing.
+        let mut bad = custom();
+        bad.update.weak_refix_ratio = f32::NAN;
         let n = bad.to_record(&mut buf).unwrap();
         assert_eq!(
             LocalizerConfig::from_record(&buf[..n]),
