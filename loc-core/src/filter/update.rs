@@ -8,8 +8,8 @@
 //! correction. Unobserved rows of `H` are kept as zero rows (fixed 3×4 algebra; their
 //! gain columns vanish). A *weakly* observed direction (the position along the tunnel from a
 //! curve seen far ahead) is measured only where the match knows it better than the filter:
-//! its errors are shared by successive scans. The odometry's scale (the state's fourth component) is not
-//! measured by a scan: its column of `H` is zero and it is corrected through its
+//! its errors are shared by successive scans. The odometry's scale (the state's fourth
+//! component) is not measured by a scan: its column of `H` is zero and it is corrected through its
 //! correlation with the position (a landmark fix after metres of odometry says how far the
 //! odometry was off).
 

@@ -238,21 +238,21 @@ mod tests {
             LocalizerConfig::from_record(&d),
             Err(ConfigRecordError::BadMagic)
         );
-        // A NaN noise behind a valid CRC: refused.
-        let mut bad = custom();
-        bad.matching.range_noise_sigma_m = f32::NAN;
-        let n = bad.to_record(&mut buf).unwrap();
-        assert_eq!(
-            LocalizerConfig::from_record(&buf[..n]),
-            Err(ConfigRecordError::Corrupt)
-        );
-        // Nor a weak direction's ratio that compares as nothing.
-        let mut bad = custom();
-        bad.update.weak_refix_ratio = f32::NAN;
-        let n = bad.to_record(&mut buf).unwrap();
-        assert_eq!(
-            LocalizerConfig::from_record(&buf[..n]),
-            Err(ConfigRecordError::Corrupt)
-        );
+        // A NaN noise, or a weak direction's ratio or threshold that compares as nothing,
+        // behind a valid CRC: refused.
+        let spoilers: [fn(&mut LocalizerConfig); 3] = [
+            |c| c.matching.range_noise_sigma_m = f32::NAN,
+            |c| c.update.weak_refix_ratio = f32::NAN,
+            |c| c.matching.min_information_points = 0.0,
+        ];
+        for spoil in spoilers {
+            let mut bad = custom();
+            spoil(&mut bad);
+            let n = bad.to_record(&mut buf).unwrap();
+            assert_eq!(
+                LocalizerConfig::from_record(&buf[..n]),
+                Err(ConfigRecordError::Corrupt)
+            );
+        }
     }
 }
