@@ -155,10 +155,7 @@ impl ObservableSubspace {
         if k >= self.rank {
             return *self;
         }
-        let mut out = *self;
-        out.rank = 0;
-        out.scaled_basis = Matrix3::zeros();
-        out.eigenvalues = Vector3::zeros();
+        let mut out = Self::empty(self.rotation_scale_m);
         for (j, (col, &lambda)) in self
             .scaled_basis
             .column_iter()
@@ -166,19 +163,34 @@ impl ObservableSubspace {
             .enumerate()
             .take(self.rank)
         {
-            if j == k {
-                continue;
-            }
-            if let (Some(mut c), Some(e)) = (
-                out.scaled_basis.column_iter_mut().nth(out.rank),
-                out.eigenvalues.get_mut(out.rank),
-            ) {
-                c.copy_from(&col);
-                *e = lambda;
-                out.rank += 1;
+            if j != k {
+                out.push(&col.into_owned(), lambda);
             }
         }
         out
+    }
+
+    /// No observed direction, at rotation scale `l`.
+    fn empty(l: f32) -> Self {
+        Self {
+            scaled_basis: Matrix3::zeros(),
+            eigenvalues: Vector3::zeros(),
+            rank: 0,
+            rotation_scale_m: l,
+        }
+    }
+
+    /// Appends an observed direction: scaled column `v`, eigenvalue `lambda` (ignored when
+    /// all three are taken).
+    fn push(&mut self, v: &Vector3<f32>, lambda: f32) {
+        if let (Some(mut col), Some(e)) = (
+            self.scaled_basis.column_iter_mut().nth(self.rank),
+            self.eigenvalues.get_mut(self.rank),
+        ) {
+            col.copy_from(v);
+            *e = lambda;
+            self.rank += 1;
+        }
     }
 }
 
@@ -189,30 +201,16 @@ pub fn observable_subspace(
     min_information: f32,
     rotation_scale_m: f32,
 ) -> ObservableSubspace {
-    let l = valid_scale(rotation_scale_m);
-    let none = ObservableSubspace {
-        scaled_basis: Matrix3::zeros(),
-        eigenvalues: Vector3::zeros(),
-        rank: 0,
-        rotation_scale_m: l,
-    };
+    let mut out = ObservableSubspace::empty(valid_scale(rotation_scale_m));
     if !information.iter().all(|v| v.is_finite()) {
-        return none;
+        return out;
     }
     let s = scaling(rotation_scale_m);
     let scaled = s * information * s;
     let eig = SymmetricEigen::new(0.5 * (scaled + scaled.transpose()));
-    let mut out = none;
     for (&lambda, v) in eig.eigenvalues.iter().zip(eig.eigenvectors.column_iter()) {
         if lambda.is_finite() && lambda >= min_information && lambda > 0.0 {
-            if let (Some(mut col), Some(e)) = (
-                out.scaled_basis.column_iter_mut().nth(out.rank),
-                out.eigenvalues.get_mut(out.rank),
-            ) {
-                col.copy_from(&v);
-                *e = lambda;
-                out.rank += 1;
-            }
+            out.push(&v.into_owned(), lambda);
         }
     }
     out
