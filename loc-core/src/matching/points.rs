@@ -77,10 +77,12 @@ pub fn select_match_points<P: VehiclePoint>(
     // first), so taking it would keep noise of one sign ahead of the sensor and the other
     // behind, a lateral and heading bias of a fifth of the range noise.
     let per_wall = (wall_budget / 2).max(1) as f32;
-    let step = span.map(|(lo, hi)| if hi > lo { (hi - lo) / per_wall } else { 0.0 });
-    let mut last_x = [f32::NEG_INFINITY; 2];
-    let mut pending = [false; 2];
-    let mut runs: [Option<WallRun>; 2] = [None; 2];
+    let mut walls_at = span.map(|(lo, hi)| WallCursor {
+        step_m: if hi > lo { (hi - lo) / per_wall } else { 0.0 },
+        last_x_m: f32::NEG_INFINITY,
+        pending: false,
+        run: WallRun::NONE,
+    });
     let (mut landmarks, mut walls) = (0usize, 0usize);
     for (p, l) in pairs() {
         if l == PointLabel::Landmark {
@@ -88,34 +90,30 @@ pub fn select_match_points<P: VehiclePoint>(
                 landmarks += 1;
             }
         } else if l.is_wall() {
-            let slot = wall_slot(l);
-            let (Some(last), Some(&step), Some(pend), Some(run)) = (
-                last_x.get_mut(slot),
-                step.get(slot),
-                pending.get_mut(slot),
-                runs.get_mut(slot),
-            ) else {
+            let Some(c) = walls_at.get_mut(wall_slot(l)) else {
                 continue;
             };
-            // The wall's run being averaged takes the point while it is within reach.
-            if !run.as_mut().is_some_and(|r| r.take(p)) {
-                flush(run, out);
-            }
-            if *pend {
+            if c.pending {
                 if walls < wall_budget {
-                    flush(run, out);
-                    *run = Some(WallRun::start(p));
+                    c.run.flush(out);
+                    c.run = WallRun::start(p);
                     walls += 1;
                 }
-                *pend = false;
-            } else if crate::math::abs(p.x_m - *last) >= step {
-                *last = p.x_m;
-                *pend = true;
+                c.pending = false;
+            } else {
+                // The run being averaged takes the point while it is within reach.
+                if !c.run.take(p) {
+                    c.run.flush(out);
+                }
+                if crate::math::abs(p.x_m - c.last_x_m) >= c.step_m {
+                    c.last_x_m = p.x_m;
+                    c.pending = true;
+                }
             }
         }
     }
-    for run in &mut runs {
-        flush(run, out);
+    for c in &mut walls_at {
+        c.run.flush(out);
     }
     counts.landmark = crate::math::saturating_u16(landmarks);
     counts.wall = crate::math::saturating_u16(walls);
@@ -137,16 +135,36 @@ pub fn select_match_points<P: VehiclePoint>(
     counts
 }
 
-/// Consecutive points of one wall being averaged into one selected point.
+/// One wall's progress through the selection.
+#[derive(Debug, Clone, Copy)]
+struct WallCursor {
+    /// x step between the wall's selected points, metres.
+    step_m: f32,
+    /// x of the point that crossed the last step, metres.
+    last_x_m: f32,
+    /// The wall's next point starts a run.
+    pending: bool,
+    run: WallRun,
+}
+
+/// Consecutive points of one wall being averaged into one selected point (vehicle frame).
 #[derive(Debug, Clone, Copy)]
 struct WallRun {
     sum_x_m: f32,
     sum_y_m: f32,
-    count: u16,
+    /// Points in the run (0: no run).
+    count: u32,
     first_x_m: f32,
 }
 
 impl WallRun {
+    const NONE: Self = Self {
+        sum_x_m: 0.0,
+        sum_y_m: 0.0,
+        count: 0,
+        first_x_m: 0.0,
+    };
+
     fn start(p: Point2) -> Self {
         Self {
             sum_x_m: p.x_m,
@@ -156,31 +174,26 @@ impl WallRun {
         }
     }
 
-    /// Adds `p` if it lies within [`WALL_RUN_M`] of the run's first point (in x); false
-    /// when it does not (the run is over).
+    /// Adds `p` if the run is open and `p` lies within [`WALL_RUN_M`] of its first point
+    /// (in x); false otherwise (the run is over, or there is none).
     fn take(&mut self, p: Point2) -> bool {
-        let within = crate::math::abs(p.x_m - self.first_x_m) <= WALL_RUN_M;
-        if within && self.count < u16::MAX {
+        let within = self.count > 0 && crate::math::abs(p.x_m - self.first_x_m) <= WALL_RUN_M;
+        if within {
             self.sum_x_m += p.x_m;
             self.sum_y_m += p.y_m;
-            self.count += 1;
-            true
-        } else {
-            false
+            self.count = self.count.saturating_add(1);
         }
+        within
     }
 
-    fn mean(&self) -> Point2 {
-        let n = f32::from(self.count);
-        Point2::new(self.sum_x_m / n, self.sum_y_m / n)
-    }
-}
-
-/// Ends `run`, if any, by adding its mean to `out` (a full `out` drops it: the capacity is
-/// the landmark and wall budgets' sum).
-fn flush(run: &mut Option<WallRun>, out: &mut MatchPoints) {
-    if let Some(r) = run.take() {
-        let _ = out.push(r.mean());
+    /// Ends the run, if any, by adding its mean to `out` (never full: its capacity is the
+    /// landmark and wall budgets' sum).
+    fn flush(&mut self, out: &mut MatchPoints) {
+        if self.count > 0 {
+            let n = self.count as f32;
+            let _ = out.push(Point2::new(self.sum_x_m / n, self.sum_y_m / n));
+            *self = Self::NONE;
+        }
     }
 }
 
