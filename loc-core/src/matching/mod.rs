@@ -41,7 +41,7 @@
 //! ## What to feed it
 //! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
 //! **decimated subset of wall points** (evenly spread along each wall, each the mean of the
-//! wall's points over [`WALL_RUN_M`](points::WALL_RUN_M) there, as a voxel filter averages). The walls carry the
+//! wall's points over [`WALL_RUN_M`] there, as a voxel filter averages). The walls carry the
 //! heading and the across-tunnel position; landmarks carry the along-tunnel position, and
 //! without them so do, weakly, the far wall points where the tunnel's curvature changes.
 //! Feeding every wall point would drown the landmarks: the K-best trimming would then discard
@@ -88,7 +88,7 @@ pub use information::{
     NormalEquations, Observability, ObservableSubspace,
 };
 pub use patches::{PatchSums, RoughnessModel, PATCHES_PER_SIDE};
-pub use points::{select_match_points, MatchPoints, SelectionCounts};
+pub use points::{select_match_points, MatchPoints, SelectionCounts, WALL_RUN_M};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
 pub use wall_end::{
     observe_wall_ends, WallEndConfig, WallEndFix, WallEndMemory, MAX_WALL_END_FIXES,

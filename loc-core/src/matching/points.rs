@@ -32,9 +32,9 @@ pub struct SelectionCounts {
 /// Fills `out` with every landmark point and at most `max_wall_points` wall points, spread
 /// evenly in x along each wall (out to the farthest the stripper labelled) and chosen
 /// independently of their own noise; each is the mean of the wall's points within
-/// [`WALL_RUN_M`] of x from the chosen one on (in scan order). When the stripper found neither walls nor landmarks, up to
-/// `max_wall_points` outliers are taken instead (evenly by index), so an unusual scene still
-/// gets matched. `labels[i]` labels `points[i]`; extra entries of either are ignored.
+/// [`WALL_RUN_M`] of x from the chosen one on (in scan order). When the stripper found
+/// neither walls nor landmarks, up to `max_wall_points` outliers are taken instead (evenly
+/// by index), so an unusual scene still gets matched. `labels[i]` labels `points[i]`; extra entries of either are ignored.
 pub fn select_match_points<P: VehiclePoint>(
     points: &[P],
     labels: &[PointLabel],
