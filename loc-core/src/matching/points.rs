@@ -34,7 +34,8 @@ pub struct SelectionCounts {
 /// independently of their own noise; each is the mean of the wall's points within
 /// [`WALL_RUN_M`] of x from the chosen one on (in scan order). When the stripper found
 /// neither walls nor landmarks, up to `max_wall_points` outliers are taken instead (evenly
-/// by index), so an unusual scene still gets matched. `labels[i]` labels `points[i]`; extra entries of either are ignored.
+/// by index), so an unusual scene still gets matched. `labels[i]` labels `points[i]`; extra
+/// entries of either are ignored.
 pub fn select_match_points<P: VehiclePoint>(
     points: &[P],
     labels: &[PointLabel],
@@ -77,7 +78,7 @@ pub fn select_match_points<P: VehiclePoint>(
     // first), so taking it would keep noise of one sign ahead of the sensor and the other
     // behind, a lateral and heading bias of a fifth of the range noise.
     let per_wall = (wall_budget / 2).max(1) as f32;
-    let mut walls_at = span.map(|(lo, hi)| WallCursor {
+    let mut cursors = span.map(|(lo, hi)| WallCursor {
         step_m: if hi > lo { (hi - lo) / per_wall } else { 0.0 },
         last_x_m: f32::NEG_INFINITY,
         pending: false,
@@ -90,7 +91,7 @@ pub fn select_match_points<P: VehiclePoint>(
                 landmarks += 1;
             }
         } else if l.is_wall() {
-            let Some(c) = walls_at.get_mut(wall_slot(l)) else {
+            let Some(c) = cursors.get_mut(wall_slot(l)) else {
                 continue;
             };
             if c.pending {
@@ -112,7 +113,7 @@ pub fn select_match_points<P: VehiclePoint>(
             }
         }
     }
-    for c in &mut walls_at {
+    for c in &mut cursors {
         c.run.flush(out);
     }
     counts.landmark = crate::math::saturating_u16(landmarks);
@@ -150,8 +151,8 @@ struct WallCursor {
 /// Consecutive points of one wall being averaged into one selected point (vehicle frame).
 #[derive(Debug, Clone, Copy)]
 struct WallRun {
-    sum_x_m: f32,
-    sum_y_m: f32,
+    /// Sum of the run's points, metres.
+    sum: Point2,
     /// Points in the run (0: no run).
     count: u32,
     first_x_m: f32,
@@ -159,16 +160,14 @@ struct WallRun {
 
 impl WallRun {
     const NONE: Self = Self {
-        sum_x_m: 0.0,
-        sum_y_m: 0.0,
+        sum: Point2::ORIGIN,
         count: 0,
         first_x_m: 0.0,
     };
 
     fn start(p: Point2) -> Self {
         Self {
-            sum_x_m: p.x_m,
-            sum_y_m: p.y_m,
+            sum: p,
             count: 1,
             first_x_m: p.x_m,
         }
@@ -179,8 +178,7 @@ impl WallRun {
     fn take(&mut self, p: Point2) -> bool {
         let within = self.count > 0 && crate::math::abs(p.x_m - self.first_x_m) <= WALL_RUN_M;
         if within {
-            self.sum_x_m += p.x_m;
-            self.sum_y_m += p.y_m;
+            self.sum = self.sum.add(p);
             self.count = self.count.saturating_add(1);
         }
         within
@@ -191,7 +189,7 @@ impl WallRun {
     fn flush(&mut self, out: &mut MatchPoints) {
         if self.count > 0 {
             let n = self.count as f32;
-            let _ = out.push(Point2::new(self.sum_x_m / n, self.sum_y_m / n));
+            let _ = out.push(Point2::new(self.sum.x_m / n, self.sum.y_m / n));
             *self = Self::NONE;
         }
     }
