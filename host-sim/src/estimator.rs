@@ -79,7 +79,7 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
     // the stored walls far ahead were matched at a held, metres-wrong position along).
     cfg.matching.roughness = RoughnessModel {
         sigma_m: scenario.tunnel.roughness_sigma_m as f32,
-        patch_length_m: (2.0 * scenario.tunnel.roughness_correlation_m as f32).max(0.1),
+        correlation_m: (scenario.tunnel.roughness_correlation_m as f32).max(0.05),
     };
     // A wall's last metre is as rough as the rest (a wall end seen at grazing incidence
     // moves along with it).

@@ -99,6 +99,12 @@ pub fn ln(x: f32) -> f32 {
     libm::logf(x)
 }
 
+/// `e^x` (libm's `expf`).
+#[inline]
+pub fn exp(x: f32) -> f32 {
+    libm::expf(x)
+}
+
 /// Absolute value.
 #[inline]
 pub fn abs(x: f32) -> f32 {

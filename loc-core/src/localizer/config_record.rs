@@ -4,7 +4,7 @@
 //! noise — everything [`LocalizerConfig`] holds, so the controller localises as the host
 //! tools do for the same vehicle.
 //!
-//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (6), reserved
+//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (7), reserved
 //! u16 (0), payload length u32, CRC-32 (IEEE) of the payload u32 — then the payload, the
 //! `postcard` encoding of [`LocalizerConfig`] (at most [`CONFIG_RECORD_MAX_BYTES`] in all).
 //! Erased flash or zeros read as [`ConfigRecordError::NotPresent`]; bytes after the record
@@ -17,12 +17,13 @@ use crate::crc::crc32;
 
 /// The record's magic.
 pub const CONFIG_MAGIC: [u8; 4] = *b"LCCF";
-/// The format version this crate writes and reads (6: weakly observed directions,
+/// The format version this crate writes and reads (7: the roughness model's correlation
+/// length, `RoughnessModel::correlation_m`, where 6 held a patch length; 6: weakly observed directions,
 /// `MatchConfig::weak_information_points` and `UpdateConfig::weak_refix_ratio`, and no wall
 /// range limit; 5 added the wall-end observation's configuration,
 /// `LocalizerConfig::wall_end`; 4 added the protection level's, 3 the
 /// relocaliser's, 2 the matcher's work budget; older records lack them and are refused).
-pub const CONFIG_FORMAT_VERSION: u16 = 6;
+pub const CONFIG_FORMAT_VERSION: u16 = 7;
 /// Bytes of the header.
 const HEADER_BYTES: usize = 16;
 /// Upper bound on a whole record, bytes.
@@ -110,7 +111,7 @@ impl LocalizerConfig {
             && [
                 g.min_range_m,
                 self.matching.roughness.sigma_m,
-                self.matching.roughness.patch_length_m,
+                self.matching.roughness.correlation_m,
                 o.drift_fraction,
                 o.scale_sd,
                 o.scale_drift_sd,
@@ -193,7 +194,7 @@ mod tests {
         c.sensor = SensorSetup::lms511_forward(1.2, -0.3);
         c.matching.roughness = RoughnessModel {
             sigma_m: 0.01,
-            patch_length_m: 0.5,
+            correlation_m: 0.5,
         };
         c.odometry.scale_sd = 0.02;
         c

@@ -5,14 +5,14 @@
 //! It is the yardstick of the localiser's accuracy (the per-scan bound beside the per-scan
 //! error; host-sim reports their ratio) and the fast objective of landmark design (a layout
 //! whose scans carry more information localises better). It uses the very accumulation
-//! the matchers solve with ([`NormalEquations`] and [`PatchSums`]), on every point given,
+//! the matchers solve with ([`NormalEquations`] and [`RoughWalls`]), on every point given,
 //! each paired with its nearest map geometry at the pose.
 
 use nalgebra::Matrix3;
 
 use super::association::paired;
 use super::information::NormalEquations;
-use super::patches::PatchSums;
+use super::roughness::RoughWalls;
 use super::MatchConfig;
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
@@ -79,7 +79,7 @@ pub fn paired_information(
 ) -> ScanInformation {
     let sigma = config.range_noise_sigma_m;
     let mut eq = NormalEquations::default();
-    let mut patches = PatchSums::new(&config.roughness, sigma, pose.theta_rad);
+    let mut walls = RoughWalls::new(&config.roughness, sigma, pose.theta_rad);
     let (s, c) = crate::math::sin_cos(pose.theta_rad);
     let t = pose.translation();
     for (p, n) in pairs {
@@ -87,15 +87,12 @@ pub fn paired_information(
             c * p.x_m - s * p.y_m + pose.x_m,
             s * p.x_m + c * p.y_m + pose.y_m,
         );
-        match patches.as_mut() {
-            Some(ps) => ps.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0),
+        match walls.as_mut() {
+            Some(rw) => rw.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0),
             None => {
                 eq.add(q, t, n, 0.0, 1.0);
             }
         }
-    }
-    if let Some(ps) = &patches {
-        ps.apply(&mut eq, 1.0);
     }
     let inv_var = if sigma.is_finite() && sigma > 0.0 {
         1.0 / (sigma * sigma)
@@ -155,7 +152,7 @@ mod tests {
             info.bound().is_none(),
             "along a smooth tunnel nothing bounds the chainage"
         );
-        // Rough walls: the same points say less (ten 2 m patches per wall, λ = 1).
+        // Rough walls: the same points say less (σ_w = σ_r, correlated over 1 m).
         let rough = MatchConfig {
             roughness: RoughnessModel::SHOTCRETE,
             ..config

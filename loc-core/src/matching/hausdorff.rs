@@ -4,9 +4,10 @@
 
 use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
 use super::information::{truncated_step, NormalEquations};
-use super::patches::PatchSums;
+use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, KBest, MatchConfig, MatchError, Outcome, Steps,
+    MAX_MATCH_POINTS,
 };
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
@@ -74,7 +75,7 @@ pub(super) fn run<M: MapQuery>(
                 }
             } else {
                 let mut eq = NormalEquations::default();
-                let mut patches = PatchSums::new(
+                let mut walls = RoughWalls::new(
                     &config.roughness,
                     config.range_noise_sigma_m,
                     pose.theta_rad,
@@ -83,32 +84,49 @@ pub(super) fn run<M: MapQuery>(
                     KBest::TrimmedMean => 1.0 / delta_m,
                     KBest::KthRanked => 1.0,
                 };
-                let selected = best_k
-                    .iter()
-                    .filter_map(|key| assoc.get(usize::from(key.1)))
-                    .filter(|a| a.associated);
                 let weight = |r: f32| match config.k_best {
                     KBest::TrimmedMean => 1.0 / math::max(math::abs(r), delta_m),
                     KBest::KthRanked => 1.0,
                 };
                 let t = pose.translation();
-                // Smooth walls take the plain loop: the firmware's budget has no room for
-                // the patches' bookkeeping when it models nothing.
-                match patches.as_mut() {
+                // Smooth walls take the plain loop, in any order: the firmware's budget has no
+                // room for the rough walls' bookkeeping when it models nothing.
+                match walls.as_mut() {
                     None => {
+                        let selected = best_k
+                            .iter()
+                            .filter_map(|key| assoc.get(usize::from(key.1)))
+                            .filter(|a| a.associated);
                         for a in selected {
                             let r = a.residual_m();
                             eq.add(a.world, t, a.normal, r, weight(r));
                         }
                     }
-                    Some(ps) => {
-                        for a in selected {
+                    Some(rw) => {
+                        // In scan order, which runs along each wall (the introselect
+                        // left the K best in no order).
+                        let mut chosen = [0u32; MAX_MATCH_POINTS / 32];
+                        for key in best_k {
+                            let i = usize::from(key.1);
+                            if let Some(bits) = chosen.get_mut(i / 32) {
+                                *bits |= 1 << (i % 32);
+                            }
+                        }
+                        let is_chosen = |i: usize| {
+                            chosen
+                                .get(i / 32)
+                                .is_some_and(|bits| bits & (1 << (i % 32)) != 0)
+                        };
+                        let selected = assoc
+                            .iter()
+                            .enumerate()
+                            .filter(|&(i, a)| a.associated && is_chosen(i));
+                        for (_, a) in selected {
                             let r = a.residual_m();
                             let p = points.get(usize::from(a.point)).copied();
                             let p = p.unwrap_or(Point2::ORIGIN);
-                            ps.add(&mut eq, p, a.world, t, a.normal, r, weight(r), w_unit);
+                            rw.add(&mut eq, p, a.world, t, a.normal, r, weight(r), w_unit);
                         }
-                        ps.apply(&mut eq, w_unit);
                     }
                 }
                 best = Some((pose, cost, eq));

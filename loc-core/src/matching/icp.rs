@@ -4,7 +4,7 @@
 
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
-use super::patches::PatchSums;
+use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, MatchConfig, MatchError, Outcome, Steps,
 };
@@ -35,7 +35,7 @@ pub(super) fn run<M: MapQuery>(
         iterations = it;
         schedule.run(map, points, pose, gate, assoc);
         let mut eq = NormalEquations::default();
-        let mut patches = PatchSums::new(
+        let mut walls = RoughWalls::new(
             &config.roughness,
             config.range_noise_sigma_m,
             pose.theta_rad,
@@ -44,19 +44,18 @@ pub(super) fn run<M: MapQuery>(
             .iter()
             .filter(|a| a.associated && a.distance_m <= gate);
         let t = pose.translation();
-        match patches.as_mut() {
+        match walls.as_mut() {
             None => {
                 for a in inliers {
                     eq.add(a.world, t, a.normal, a.residual_m(), 1.0);
                 }
             }
-            Some(ps) => {
+            Some(rw) => {
                 for a in inliers {
                     let p = points.get(usize::from(a.point)).copied();
                     let p = p.unwrap_or(Point2::ORIGIN);
-                    ps.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
+                    rw.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
                 }
-                ps.apply(&mut eq, 1.0);
             }
         }
         if (eq.count as usize) < required {

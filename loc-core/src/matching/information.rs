@@ -46,7 +46,7 @@ impl NormalEquations {
     /// residual `r` (metres) and IRLS weight `w`; returns its Jacobian `J`.
     #[inline]
     pub fn add(&mut self, q: Point2, t: Point2, n: Point2, r: f32, w: f32) -> Vector3<f32> {
-        let j = Vector3::new(n.x_m, n.y_m, n.dot(q.sub(t).perp()));
+        let j = Self::jacobian(q, t, n);
         let jjt = j * j.transpose();
         self.information_points += jjt;
         self.weighted += jjt * w;
@@ -54,6 +54,13 @@ impl NormalEquations {
         self.count = self.count.saturating_add(1);
         self.sum_sq_m2 += r * r;
         j
+    }
+
+    /// The Jacobian of a point-to-line residual with respect to the pose `(x, y, θ)`: world
+    /// point `q`, pose translation `t`, unit line normal `n`.
+    #[inline]
+    pub fn jacobian(q: Point2, t: Point2, n: Point2) -> Vector3<f32> {
+        Vector3::new(n.x_m, n.y_m, n.dot(q.sub(t).perp()))
     }
 
     /// RMS residual, metres (0 without residuals).

@@ -70,9 +70,9 @@ mod guided;
 mod hausdorff;
 mod icp;
 mod information;
-mod patches;
 mod points;
 mod prealign;
+mod roughness;
 mod wall_end;
 
 pub use association::{
@@ -87,9 +87,9 @@ pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, Observability, ObservableSubspace,
 };
-pub use patches::{PatchSums, RoughnessModel, PATCHES_PER_SIDE};
 pub use points::{select_match_points, MatchPoints, SelectionCounts, WALL_RUN_M};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
+pub use roughness::{RoughWalls, RoughnessModel};
 pub use wall_end::{
     observe_wall_ends, WallEndConfig, WallEndFix, WallEndMemory, MAX_WALL_END_FIXES,
 };
@@ -204,7 +204,7 @@ pub struct MatchConfig {
     /// 1σ range noise of the lidar, metres: scales the covariance.
     pub range_noise_sigma_m: f32,
     /// How far the real walls deviate from the smooth stored map, and over what length
-    /// (points on one stretch share its offset; see [`RoughnessModel`]).
+    /// along them the deviation stays alike (see [`RoughnessModel`]).
     pub roughness: RoughnessModel,
     /// Fewest points (and fewest associated inliers) for a match.
     pub min_points: u16,
