@@ -205,12 +205,12 @@ fn a_kidnapped_localizer_notices_relocalises_and_tracks_again() {
     }
 }
 
-#[test]
-fn evenly_spaced_landmarks_are_ambiguous_and_never_tracked() {
+/// The test kit's straight 300 m tunnel, but every landmark exactly 10 m from the last on
+/// both walls: every placement along it explains what the vehicle sees equally well, so a
+/// search never locks.
+fn evenly_spaced() -> Tunnel {
     use loc_core::landmark::{Genome, LandmarkShape};
     use loc_core::map::{LandmarkPlacement, WallSide};
-    // The same tunnel, but every landmark exactly 10 m from the last on both walls: every
-    // placement along it explains what the vehicle sees equally well.
     let spec = TunnelSpec::straight(300.0);
     let mut map = Box::new(TunnelMap::new());
     let wall = |y: f32| (0..=300).map(move |i| loc_core::geometry::Point2::new(i as f32, y));
@@ -231,7 +231,12 @@ fn evenly_spaced_landmarks_are_ambiguous_and_never_tracked() {
         }
     }
     b.finish().expect("map builds");
-    let t = Tunnel { spec, map };
+    Tunnel { spec, map }
+}
+
+#[test]
+fn evenly_spaced_landmarks_are_ambiguous_and_never_tracked() {
+    let t = evenly_spaced();
     let d = drive(&t, 120.0, false, 60.0, 400, None);
     assert_eq!(d.tracking_after_m, None, "{d:?}");
     let Status::Relocalising { progress } = d.last_status else {
@@ -243,4 +248,49 @@ fn evenly_spaced_landmarks_are_ambiguous_and_never_tracked() {
         "{progress:?}"
     );
     assert!(progress.lead < 25.0, "{progress:?}");
+}
+
+/// A search started with a pose (the localizer judged itself lost, or was told to
+/// relocalise) that cannot lock — here the evenly spaced landmarks — ends once the
+/// landmarks have confirmed the pose kept, as they must confirm a placement: the pose is
+/// reported tracking again, at the right place, rather than relocalising for as long as the
+/// drive lasts.
+#[test]
+fn a_search_with_a_pose_is_called_off_once_the_landmarks_confirm_the_pose() {
+    let t = evenly_spaced();
+    let mut sim = ScanSimulator::new(7);
+    let mut scan = Box::new(Scan::new());
+    let setup = SensorSetup::default();
+    let mut s = 100.0f32;
+    let mut truth = t.pose(s, 0.1, 0.0);
+    let mut localizer = Localizer::uninitialised(&*t.map, LocalizerConfig::default());
+    localizer
+        .initialise(truth, nalgebra::Matrix3::from_diagonal_element(1e-4))
+        .expect("valid start");
+    localizer.relocalise();
+    let mut called_off_after_m = None;
+    let mut driven = 0.0f32;
+    while driven < 40.0 {
+        let next = t.pose(s + STEP_M, 0.1, 0.0);
+        let _ = localizer.predict_odometry(&OdometryIncrement::between(&truth, &next));
+        (s, truth, driven) = (s + STEP_M, next, driven + STEP_M);
+        sim.simulate_scan(&*t.map, &truth, &setup, LMS511_MAX_BEAMS, &mut scan);
+        let status = localizer.update_scan(&scan);
+        let relocalising = matches!(status, Status::Relocalising { .. });
+        assert_eq!(relocalising, localizer.is_relocalising(), "{status:?}");
+        match (called_off_after_m, relocalising) {
+            (None, false) => called_off_after_m = Some(driven),
+            (Some(at), true) => panic!("relocalising again at {driven} m (off at {at} m)"),
+            _ => {}
+        }
+        if matches!(status, Status::Tracking) {
+            let p = localizer.pose().expect("tracking has a pose");
+            let e = math::hypot(p.x_m - truth.x_m, p.y_m - truth.y_m);
+            assert!(e < 0.02, "tracking {e} m off at {driven} m");
+        }
+    }
+    let at = called_off_after_m.expect("the search was called off");
+    // The confirmation takes 3 m of fitting scans (`IntegrityConfig::confirm_distance_m`).
+    assert!((3.0..=15.0).contains(&at), "called off after {at} m");
+    assert_eq!(localizer.status(), Status::Tracking);
 }

@@ -99,6 +99,10 @@ pub struct Integrity {
     pub clusters: u8,
     /// Of which the map explains.
     pub clusters_explained: u8,
+    /// Of the explained, those with a point on a map landmark (the others lie on a wall
+    /// only: a bump of the wall labelled as a landmark fits the map too, and is all a bare
+    /// tunnel has).
+    pub clusters_on_landmarks: u8,
 }
 
 /// A run of landmark points being gathered: points, points checked against the map, of
@@ -108,6 +112,8 @@ struct Run {
     points: u16,
     checked: u16,
     explained: u16,
+    /// Of the explained, on a map landmark.
+    on_landmark: u16,
     last: Point2,
 }
 
@@ -152,14 +158,16 @@ impl Integrity {
                 points: 0,
                 checked: 0,
                 explained: 0,
+                on_landmark: 0,
                 last: v,
             });
             r.points = r.points.saturating_add(1);
             r.last = v;
             if k % stride == 0 {
-                let explained = map
-                    .nearest(to_world.apply(v), config.explained_within_m)
-                    .is_some();
+                let near = map.nearest(to_world.apply(v), config.explained_within_m);
+                let explained = near.is_some();
+                let on_landmark = near.is_some_and(|h| h.kind.is_landmark());
+                r.on_landmark = r.on_landmark.saturating_add(u16::from(on_landmark));
                 out.checked_points = out.checked_points.saturating_add(1);
                 out.explained_points = out.explained_points.saturating_add(u16::from(explained));
                 r.checked = r.checked.saturating_add(1);
@@ -179,6 +187,9 @@ impl Integrity {
         self.clusters = self.clusters.saturating_add(1);
         if f32::from(r.explained) >= config.cluster_explained_fraction * f32::from(r.checked) {
             self.clusters_explained = self.clusters_explained.saturating_add(1);
+            if r.on_landmark > 0 {
+                self.clusters_on_landmarks = self.clusters_on_landmarks.saturating_add(1);
+            }
         }
     }
 
@@ -333,6 +344,51 @@ mod tests {
             self.monitor
                 .observe(&scan(clusters, explained), self.odometer_m, &self.config)
         }
+    }
+
+    /// A landmark's face on a map landmark, and a bump of the wall the stripper labelled a
+    /// landmark: both are explained, only the first lies on a map landmark.
+    #[test]
+    fn clusters_on_a_wall_are_explained_but_not_on_landmarks() {
+        extern crate std;
+        use crate::landmark::{Genome, LandmarkModel, LandmarkShape};
+        use crate::map::{LandmarkPlacement, TunnelMap, WallSide};
+        let mut map = std::boxed::Box::new(TunnelMap::new());
+        let wall = |y: f32| (0..=100).map(move |i| Point2::new(i as f32, y));
+        let mut b = map
+            .builder_from_iters(wall(2.5), wall(-2.5))
+            .expect("walls fit");
+        let model = LandmarkModel::P1Triangle;
+        let shape = LandmarkShape::new(model, Genome::paper_default(model));
+        b.add(LandmarkPlacement {
+            wall: WallSide::Left,
+            s_m: 50.0,
+            offset_m: 0.0,
+            shape,
+        })
+        .expect("landmark fits");
+        b.finish().expect("map builds");
+        // Vehicle at x = 40: the P1's near face runs from (49.75, 2.5) to its apex (50, 2.25);
+        // the bump is 2 cm proud of the wall at x = 45.
+        let mut points = [Point2::ORIGIN; 12];
+        for (k, p) in points.iter_mut().enumerate() {
+            let t = 0.2 + 0.1 * (k % 6) as f32;
+            *p = if k < 6 {
+                Point2::new(9.75 + 0.25 * t, 2.5 - 0.25 * t)
+            } else {
+                Point2::new(5.0 + t * 0.3, 2.48)
+            };
+        }
+        let labels = [PointLabel::Landmark; 12];
+        let i = Integrity::check(
+            &*map,
+            &points,
+            &labels,
+            Pose2::new(40.0, 0.0, 0.0),
+            &IntegrityConfig::default(),
+        );
+        assert_eq!((i.clusters, i.clusters_explained), (2, 2), "{i:?}");
+        assert_eq!(i.clusters_on_landmarks, 1, "{i:?}");
     }
 
     #[test]

@@ -140,11 +140,15 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// Starts a global relocalisation: the vehicle's position is searched in the whole map
     /// from the landmarks seen while driving ([`crate::relocalise`]). Without a pose (a
     /// localizer built [`Localizer::uninitialised`]) this is how it finds one; with one, the
-    /// localizer goes on matching from it meanwhile. The status is
-    /// [`Status::Relocalising`] until a placement wins.
+    /// localizer goes on matching from it meanwhile, and the map must confirm that pose
+    /// again. The status is [`Status::Relocalising`] until a placement wins, or until the
+    /// landmarks have confirmed the pose kept as they must confirm a placement's
+    /// ([`IntegrityConfig::confirm_distance_m`]) and a scan's landmarks lie on two of the
+    /// map's: then the search is called off.
     pub fn relocalise(&mut self) {
         self.relocaliser.restart();
         self.relocalising = true;
+        self.integrity_monitor.distrust();
         self.doubtful_since_m = None;
         self.gate_failures = 0;
         self.status = Status::Relocalising {
@@ -514,6 +518,23 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
                 }
             }
             _ => {}
+        }
+        // The pose kept while searching has been confirmed by the landmarks again (over the
+        // same distance a placement must be) and this scan's landmarks lie on two of the
+        // map's: the search has nothing left to find. Without this, a search that cannot
+        // lock left a confirmed pose reported as relocalising, and matched only every other
+        // scan, for as long as it ran (250 m of the S-bend's seed 3). Wall bumps confirm the
+        // map too, but not a position along a bare tunnel: there the search goes on.
+        let on_landmarks = self
+            .last_integrity
+            .is_some_and(|i| i.clusters_on_landmarks >= 2);
+        if self.relocalising
+            && matches!(status, Status::Tracking | Status::Degenerate { .. })
+            && self.integrity_monitor.is_trusted()
+            && on_landmarks
+        {
+            self.relocalising = false;
+            self.relocaliser.restart();
         }
         if self.relocalising {
             Status::Relocalising {
