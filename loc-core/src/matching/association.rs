@@ -18,8 +18,9 @@ pub struct Association {
     /// Closest map point, world frame.
     pub closest: Point2,
     /// Unit normal of the residual: the segment's normal, or, when the closest point is an
-    /// end of the segment, the direction from that end to the point (so `normal·(world −
-    /// closest)` is the true distance either way).
+    /// end of a landmark's segment, the direction from that end to the point (so
+    /// `normal·(world − closest)` is the true distance); past a wall segment's end, the
+    /// distance to the wall's line.
     pub normal: Point2,
     /// False when no map geometry lay within the gate.
     pub associated: bool,
@@ -153,8 +154,15 @@ pub(super) fn paired(
     pr: SegmentProjection,
     landmark: bool,
 ) -> Association {
+    // Past a landmark's corner the residual runs from the corner to the point. Past a
+    // wall segment's end it stays across the wall's line: where a stored wall stops, the
+    // scanned wall's last point is only the last beam to reach it — a beam spacing short of
+    // the real end at grazing incidence, or beyond it when the real wall goes on — so the
+    // end is no point to pull the scan onto along the tunnel (the wall-end observation
+    // measures it, with that spacing in its variance). As a corner it made the match claim
+    // the position along to 13 mm, 113 mm off, at the bare S-bend's end.
     let at_end = pr.t <= 0.0 || pr.t >= 1.0;
-    let normal = if at_end && pr.distance_m > 1e-6 {
+    let normal = if landmark && at_end && pr.distance_m > 1e-6 {
         world.sub(pr.closest).scale(1.0 / pr.distance_m)
     } else {
         pr.normal
@@ -307,6 +315,25 @@ mod tests {
             distance_m: d,
             ..Association::default()
         }
+    }
+
+    /// Past a wall segment's end the residual stays across the wall (no pull along it);
+    /// past a landmark's corner it runs from the corner.
+    #[test]
+    fn past_a_wall_end_the_residual_stays_across_the_wall() {
+        let wall = Segment::new(Point2::new(0.0, 2.0), Point2::new(10.0, 2.0));
+        let p = Point2::new(10.05, 2.01);
+        let pr = wall.project(p);
+        let a = paired(p, wall, pr, false);
+        assert!(a.normal.x_m.abs() < 1e-6 && (a.normal.y_m.abs() - 1.0).abs() < 1e-6);
+        assert!(
+            (a.residual_m().abs() - 0.01).abs() < 1e-5,
+            "{}",
+            a.residual_m()
+        );
+        let corner = paired(p, wall, pr, true);
+        assert!(corner.normal.x_m > 0.9, "{:?}", corner.normal);
+        assert!((corner.residual_m() - pr.distance_m).abs() < 1e-6);
     }
 
     #[test]

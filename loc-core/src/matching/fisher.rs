@@ -63,7 +63,10 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
             return None;
         }
         // The residual's normal exactly as the matchers pair the point.
-        Some((p, paired(q, hit.segment, hit.projection, false).normal))
+        Some((
+            p,
+            paired(q, hit.segment, hit.projection, hit.kind.is_landmark()).normal,
+        ))
     });
     paired_information(pairs, pose, config)
 }
