@@ -18,9 +18,9 @@ use crate::crc::crc32;
 /// The record's magic.
 pub const CONFIG_MAGIC: [u8; 4] = *b"LCCF";
 /// The format version this crate writes and reads (7: the roughness model's correlation
-/// length, `RoughnessModel::correlation_m`, where 6 held a patch length; 6: weakly observed directions,
-/// `MatchConfig::weak_information_points` and `UpdateConfig::weak_refix_ratio`, and no wall
-/// range limit; 5 added the wall-end observation's configuration,
+/// length, `RoughnessModel::correlation_m`, where 6 held a patch length; 6: weakly observed
+/// directions, `MatchConfig::weak_information_points` and `UpdateConfig::weak_refix_ratio`,
+/// and no wall range limit; 5 added the wall-end observation's configuration,
 /// `LocalizerConfig::wall_end`; 4 added the protection level's, 3 the
 /// relocaliser's, 2 the matcher's work budget; older records lack them and are refused).
 pub const CONFIG_FORMAT_VERSION: u16 = 7;
