@@ -136,13 +136,13 @@ fn stages(c: &mut Criterion) {
             )
         });
     }
+    rough_walls(c, &f);
 }
 
 /// The same scan with the walls' roughness modelled (host-sim's tunnels: 5 mm, correlated
 /// over 0.5 m): what the rough walls' filter adds (the vehicle runs it when its
 /// configuration record sets a roughness).
-fn rough_walls(c: &mut Criterion) {
-    let f = fixture();
+fn rough_walls(c: &mut Criterion, f: &Fixture) {
     let mut config = LocalizerConfig::with_matcher(MatcherKind::Hausdorff);
     config.matching.roughness = RoughnessModel {
         sigma_m: 0.005,
@@ -158,5 +158,5 @@ fn rough_walls(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, stages, rough_walls);
+criterion_group!(benches, stages);
 criterion_main!(benches);

@@ -51,9 +51,16 @@ impl NormalEquations {
         self.information_points += jjt;
         self.weighted += jjt * w;
         self.gradient += j * (w * r);
+        self.count_residual(r);
+        j
+    }
+
+    /// Counts one residual `r` (metres) in `count` and `sum_sq_m2`; the sums of the step and
+    /// the information are the caller's (the rough walls add whitened ones).
+    #[inline]
+    pub fn count_residual(&mut self, r: f32) {
         self.count = self.count.saturating_add(1);
         self.sum_sq_m2 += r * r;
-        j
     }
 
     /// The Jacobian of a point-to-line residual with respect to the pose `(x, y, θ)`: world

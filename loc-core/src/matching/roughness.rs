@@ -184,8 +184,7 @@ impl RoughWalls {
         w_unit: f32,
     ) {
         let j = NormalEquations::jacobian(q, t, n);
-        eq.count = eq.count.saturating_add(1);
-        eq.sum_sq_m2 += r * r;
+        eq.count_residual(r);
         let left = p.y_m >= 0.0;
         // The wall's normal in the world: the vehicle's left (or right) axis.
         let (s, c) = self.sin_cos;
