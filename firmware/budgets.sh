@@ -19,6 +19,14 @@ sizes() {
     END { printf "%d %d\n", ram, flash }'
 }
 
+# The bench's and the controller's logs leave as defmt frames (decoded by defmt-print, as
+# in run-qemu-tests.sh, which installs the same pinned version).
+DEFMT_PRINT_VERSION=$(sed -nE 's/^DEFMT_PRINT_VERSION=([0-9.]+).*/\1/p' run-qemu-tests.sh)
+if ! command -v defmt-print >/dev/null 2>&1; then
+  echo "installing defmt-print $DEFMT_PRINT_VERSION (decodes the firmware's defmt log)" >&2
+  cargo install defmt-print --locked --version "$DEFMT_PRINT_VERSION" --quiet >&2 || exit 1
+fi
+
 echo "building the three boards' controllers (release) ..." >&2
 cargo build --release --quiet --workspace --bins 2>&1 >&2 || exit 1
 CARGO_TARGET_DIR=$target_dir/nucleo-h743zi cargo build --release --quiet --bin controller \

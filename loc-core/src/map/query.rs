@@ -27,6 +27,15 @@ impl FeatureKind {
     pub fn is_landmark(self) -> bool {
         matches!(self, FeatureKind::Landmark { .. })
     }
+
+    /// The landmark's index in the map; `None` for a wall.
+    #[inline]
+    pub fn landmark_id(self) -> Option<u16> {
+        match self {
+            FeatureKind::Landmark { id } => Some(id),
+            _ => None,
+        }
+    }
 }
 
 /// The map geometry nearest to a query point (world frame).

@@ -4,8 +4,54 @@
 use core::cmp::Ordering;
 
 use crate::geometry::{Point2, Pose2, Segment, SegmentProjection};
-use crate::map::MapQuery;
+use crate::map::{FeatureKind, MapQuery};
 use crate::math;
+
+/// What a scan point is paired with: nothing, a wall, or a landmark (by its index in the
+/// map). Two bytes, so that an [`Association`] stays 56 (the match workspace holds 512 of
+/// them in the controller's RAM).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pairing(u16);
+
+impl Pairing {
+    /// Paired with nothing (no map geometry within the gate).
+    pub const NONE: Self = Self(u16::MAX);
+    /// Paired with a wall.
+    pub const WALL: Self = Self(u16::MAX - 1);
+
+    /// Paired with the landmark of map index `id` (maps hold far fewer than 65 534
+    /// landmarks; a larger index is taken as the largest there can be).
+    pub const fn landmark(id: u16) -> Self {
+        Self(if id < u16::MAX - 1 { id } else { u16::MAX - 2 })
+    }
+
+    /// The pairing with map geometry of `kind`.
+    pub fn of(kind: FeatureKind) -> Self {
+        kind.landmark_id().map_or(Self::WALL, Self::landmark)
+    }
+
+    /// True when paired with map geometry.
+    #[inline]
+    pub const fn is_paired(self) -> bool {
+        self.0 != Self::NONE.0
+    }
+
+    /// The landmark's map index when paired with one.
+    #[inline]
+    pub const fn landmark_id(self) -> Option<u16> {
+        if self.0 < Self::WALL.0 {
+            Some(self.0)
+        } else {
+            None
+        }
+    }
+}
+
+impl Default for Pairing {
+    fn default() -> Self {
+        Self::NONE
+    }
+}
 
 /// One scan point's pairing with the map at the current pose.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -22,20 +68,31 @@ pub struct Association {
     /// `normal·(world − closest)` is the true distance); past a wall segment's end, the
     /// distance to the wall's line.
     pub normal: Point2,
-    /// False when no map geometry lay within the gate.
-    pub associated: bool,
     /// The map segment associated with (meaningless when not associated).
     pub segment: Segment,
     /// Unit normal of that segment's line (re-projections onto it need no square root).
     pub line_normal: Point2,
-    /// True when the segment is part of a landmark (such points are searched again after
-    /// small moves, see [`AssociationSchedule`]).
-    pub landmark: bool,
+    /// What the segment is part of ([`Pairing::NONE`] when no map geometry lay within the
+    /// gate). Landmark points are searched again after small moves (see
+    /// [`AssociationSchedule`]).
+    pub pairing: Pairing,
     /// Index of the scan point in the slice associated.
     pub point: u16,
 }
 
 impl Association {
+    /// True when map geometry lay within the gate.
+    #[inline]
+    pub fn associated(&self) -> bool {
+        self.pairing.is_paired()
+    }
+
+    /// The map index of the landmark the point is paired with, if any.
+    #[inline]
+    pub fn landmark(&self) -> Option<u16> {
+        self.pairing.landmark_id()
+    }
+
     /// The signed point-to-line residual, metres.
     #[inline]
     pub fn residual_m(&self) -> f32 {
@@ -63,7 +120,7 @@ pub fn associate<M: MapQuery>(
         *a = match map.nearest(world, gate_m) {
             Some(hit) if hit.projection.distance_m.is_finite() => {
                 found += 1;
-                paired(world, hit.segment, hit.projection, hit.kind.is_landmark())
+                paired(world, hit.segment, hit.projection, Pairing::of(hit.kind))
             }
             _ => unpaired(world, gate_m),
         };
@@ -111,7 +168,7 @@ fn reproject_counting<M: MapQuery>(
             c * p.x_m - s * p.y_m + pose.x_m,
             s * p.x_m + c * p.y_m + pose.y_m,
         );
-        if !a.associated {
+        if !a.associated() {
             a.world = world;
             continue;
         }
@@ -120,16 +177,16 @@ fn reproject_counting<M: MapQuery>(
             *searches += 1;
             map.nearest(world, gate_m)
                 .filter(|h| h.projection.distance_m.is_finite())
-                .map(|h| (h.segment, h.projection, h.kind.is_landmark()))
+                .map(|h| (h.segment, h.projection, Pairing::of(h.kind)))
         };
-        let hit = if a.landmark && search_landmarks {
+        let hit = if a.landmark().is_some() && search_landmarks {
             search(world)
         } else {
             let pr = a.segment.project_with_normal(world, a.line_normal);
             if pr.t > 0.0 && pr.t < 1.0 {
                 // Still the same kind of geometry: a landmark point stays one, to be
                 // searched again at the next landmark search.
-                (pr.distance_m <= gate_m).then_some((a.segment, pr, a.landmark))
+                (pr.distance_m <= gate_m).then_some((a.segment, pr, a.pairing))
             } else {
                 // Slid off its segment's end: the neighbouring piece of wall (or whatever
                 // lies there) is found for this point alone.
@@ -137,9 +194,9 @@ fn reproject_counting<M: MapQuery>(
             }
         };
         *a = match hit {
-            Some((segment, pr, landmark)) => {
+            Some((segment, pr, pairing)) => {
                 found += 1;
-                paired(world, segment, pr, landmark)
+                paired(world, segment, pr, pairing)
             }
             None => unpaired(world, gate_m),
         };
@@ -152,7 +209,7 @@ pub(super) fn paired(
     world: Point2,
     segment: Segment,
     pr: SegmentProjection,
-    landmark: bool,
+    pairing: Pairing,
 ) -> Association {
     // Past a landmark's corner the residual runs from the corner to the point. Past a
     // wall segment's end it stays across the wall's line: where a stored wall stops, the
@@ -162,7 +219,7 @@ pub(super) fn paired(
     // measures it, with that spacing in its variance). As a corner it made the match claim
     // the position along to 13 mm, 113 mm off, at the bare S-bend's end.
     let at_end = pr.t <= 0.0 || pr.t >= 1.0;
-    let normal = if landmark && at_end && pr.distance_m > 1e-6 {
+    let normal = if pairing.landmark_id().is_some() && at_end && pr.distance_m > 1e-6 {
         world.sub(pr.closest).scale(1.0 / pr.distance_m)
     } else {
         pr.normal
@@ -172,10 +229,9 @@ pub(super) fn paired(
         world,
         closest: pr.closest,
         normal,
-        associated: true,
         segment,
         line_normal: pr.normal,
-        landmark,
+        pairing,
         point: 0,
     }
 }
@@ -186,10 +242,9 @@ fn unpaired(world: Point2, gate_m: f32) -> Association {
         world,
         closest: world,
         normal: Point2::new(1.0, 0.0),
-        associated: false,
         segment: Segment::new(world, world),
         line_normal: Point2::new(1.0, 0.0),
-        landmark: false,
+        pairing: Pairing::NONE,
         point: 0,
     }
 }
@@ -324,14 +379,14 @@ mod tests {
         let wall = Segment::new(Point2::new(0.0, 2.0), Point2::new(10.0, 2.0));
         let p = Point2::new(10.05, 2.01);
         let pr = wall.project(p);
-        let a = paired(p, wall, pr, false);
+        let a = paired(p, wall, pr, Pairing::WALL);
         assert!(a.normal.x_m.abs() < 1e-6 && (a.normal.y_m.abs() - 1.0).abs() < 1e-6);
         assert!(
             (a.residual_m().abs() - 0.01).abs() < 1e-5,
             "{}",
             a.residual_m()
         );
-        let corner = paired(p, wall, pr, true);
+        let corner = paired(p, wall, pr, Pairing::landmark(0));
         assert!(corner.normal.x_m > 0.9, "{:?}", corner.normal);
         assert!((corner.residual_m() - pr.distance_m).abs() < 1e-6);
     }

@@ -10,7 +10,7 @@
 
 use nalgebra::Matrix3;
 
-use super::association::paired;
+use super::association::{paired, Pairing};
 use super::information::NormalEquations;
 use super::roughness::RoughWalls;
 use super::MatchConfig;
@@ -65,7 +65,7 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
         // The residual's normal exactly as the matchers pair the point.
         Some((
             p,
-            paired(q, hit.segment, hit.projection, hit.kind.is_landmark()).normal,
+            paired(q, hit.segment, hit.projection, Pairing::of(hit.kind)).normal,
         ))
     });
     paired_information(pairs, pose, config)

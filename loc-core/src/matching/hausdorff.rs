@@ -4,6 +4,7 @@
 
 use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
 use super::information::{truncated_step, NormalEquations};
+use super::misfit::Misfits;
 use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, KBest, MatchConfig, MatchError, Outcome, Steps,
@@ -44,14 +45,20 @@ pub(super) fn run<M: MapQuery>(
     let mut iterations = 0u16;
     // Whether the loop ended at an optimum rather than by running out of work or iterations.
     let mut converged = false;
+    // Landmarks left out once the match had converged (see `misfit`); judged once.
+    let mut misfits: Option<Misfits> = None;
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
-        let associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
+        let mut associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
+        if let Some(m) = misfits.as_ref() {
+            let left_out = m.unpair(assoc, config.association_gate_m);
+            associated = associated.saturating_sub(left_out);
+        }
         if it == 1 && explained_m > 0.0 {
             // Fixed for the whole match, so that the costs compared stay comparable.
             let within = assoc
                 .iter()
-                .filter(|a| a.associated && a.distance_m <= explained_m)
+                .filter(|a| a.associated() && a.distance_m <= explained_m)
                 .count();
             k = k.max(within).min(m.max(1));
         }
@@ -96,7 +103,7 @@ pub(super) fn run<M: MapQuery>(
                         let selected = best_k
                             .iter()
                             .filter_map(|key| assoc.get(usize::from(key.1)))
-                            .filter(|a| a.associated);
+                            .filter(|a| a.associated());
                         for a in selected {
                             let r = a.residual_m();
                             eq.add(a.world, t, a.normal, r, weight(r));
@@ -120,7 +127,7 @@ pub(super) fn run<M: MapQuery>(
                         let selected = assoc
                             .iter()
                             .enumerate()
-                            .filter(|&(i, a)| a.associated && is_chosen(i));
+                            .filter(|&(i, a)| a.associated() && is_chosen(i));
                         for (_, a) in selected {
                             let r = a.residual_m();
                             let p = points.get(usize::from(a.point)).copied();
@@ -156,6 +163,24 @@ pub(super) fn run<M: MapQuery>(
         steps.record(len);
         // (A damping this high means no step lowers the cost any more: an optimum.)
         converged = small || damping > 1.0e3;
+        if converged && misfits.is_none() && explained_m > 0.0 {
+            // At the optimum, a landmark not as mapped shows: converge again without it
+            // (iterations and work permitting; the budget holds whatever it finds).
+            let found = Misfits::find(assoc, explained_m);
+            let room = it < config.max_iterations && !out_of_work(schedule.work(), config);
+            if room && !found.is_empty() {
+                let left_out = found.unpair(assoc, config.association_gate_m);
+                k = k.min(m.saturating_sub(left_out)).max(1);
+                pose = *best_pose;
+                best = None;
+                damping = 0.0;
+                last_accepted_step = None;
+                converged = false;
+                misfits = Some(found);
+                continue;
+            }
+            misfits = Some(found);
+        }
         if converged || out_of_work(schedule.work(), config) {
             break;
         }

@@ -42,7 +42,7 @@ pub(super) fn run<M: MapQuery>(
         );
         let inliers = assoc
             .iter()
-            .filter(|a| a.associated && a.distance_m <= gate);
+            .filter(|a| a.associated() && a.distance_m <= gate);
         let t = pose.translation();
         match walls.as_mut() {
             None => {

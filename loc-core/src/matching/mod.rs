@@ -14,7 +14,9 @@
 //!     only when the K-th distance does not grow.
 //!
 //!   Steps that raise the cost are rejected and retried shorter (Levenberg damping). The K
-//!   best are found by introselect in the workspace (`O(m)`, no full sort).
+//!   best are found by introselect in the workspace (`O(m)`, no full sort). At the optimum,
+//!   a landmark whose points the model mostly leaves unexplained (bent or moved) is left
+//!   out and the match converges again without it (`misfit`).
 //! - [`MatcherKind::Icp`]: point-to-line ICP after Censi (PL-ICP): every point within an
 //!   association gate is paired with the nearest map segment and the sum of squared
 //!   point-to-line distances is minimised; the gate shrinks to 3× the RMS residual (never below
@@ -70,13 +72,14 @@ mod guided;
 mod hausdorff;
 mod icp;
 mod information;
+mod misfit;
 mod points;
 mod prealign;
 mod roughness;
 mod wall_end;
 
 pub use association::{
-    associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey,
+    associate, reproject, select_k_best, Association, AssociationSchedule, DistanceKey, Pairing,
 };
 pub use fisher::{paired_information, scan_information, ScanInformation};
 pub use guided::{
@@ -404,10 +407,9 @@ impl MatchWorkspace {
                 world: Point2::ORIGIN,
                 closest: Point2::ORIGIN,
                 normal: Point2::ORIGIN,
-                associated: false,
                 segment: crate::geometry::Segment::new(Point2::ORIGIN, Point2::ORIGIN),
                 line_normal: Point2::ORIGIN,
-                landmark: false,
+                pairing: Pairing::NONE,
                 point: 0,
             }; MAX_MATCH_POINTS],
             keys: [(0.0, 0); MAX_MATCH_POINTS],
