@@ -372,6 +372,26 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_pairing_says_what_the_point_is_paired_with_in_two_bytes() {
+        assert_eq!(core::mem::size_of::<Pairing>(), 2);
+        assert_eq!(core::mem::size_of::<Association>(), 56);
+        assert!(!Pairing::NONE.is_paired() && Pairing::NONE.landmark_id().is_none());
+        assert!(Pairing::default() == Pairing::NONE);
+        assert!(Pairing::WALL.is_paired() && Pairing::WALL.landmark_id().is_none());
+        assert_eq!(Pairing::of(FeatureKind::RightWall), Pairing::WALL);
+        assert_eq!(
+            Pairing::of(FeatureKind::Landmark { id: 7 }).landmark_id(),
+            Some(7)
+        );
+        assert_eq!(Pairing::landmark(0).landmark_id(), Some(0));
+        // An index beyond any map's stays a landmark, never a wall or nothing.
+        assert_eq!(
+            Pairing::landmark(u16::MAX).landmark_id(),
+            Some(u16::MAX - 2)
+        );
+    }
+
     /// Past a wall segment's end the residual stays across the wall (no pull along it);
     /// past a landmark's corner it runs from the corner.
     #[test]
