@@ -15,7 +15,7 @@
 
 use super::association::{Association, Pairing};
 
-/// Most landmarks judged in one scan (the nearest in scan order; a scan sees 2–10).
+/// Most landmarks judged in one scan (the first met in scan order; a scan sees 2–10).
 const MAX_JUDGED: usize = 16;
 /// Most landmarks dropped from one match.
 const MAX_MISFITS: usize = 4;
