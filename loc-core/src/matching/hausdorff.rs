@@ -168,18 +168,21 @@ pub(super) fn run<M: MapQuery>(
             // (iterations and work permitting; the budget holds whatever it finds).
             let found = Misfits::find(assoc, explained_m);
             let room = it < config.max_iterations && !out_of_work(schedule.work(), config);
-            if room && !found.is_empty() {
-                let left_out = found.unpair(assoc, config.association_gate_m);
+            let left_out = if room {
+                found.unpair(assoc, config.association_gate_m)
+            } else {
+                0
+            };
+            misfits = Some(found);
+            if left_out > 0 {
                 k = k.min(m.saturating_sub(left_out)).max(1);
                 pose = *best_pose;
                 best = None;
                 damping = 0.0;
                 last_accepted_step = None;
                 converged = false;
-                misfits = Some(found);
                 continue;
             }
-            misfits = Some(found);
         }
         if converged || out_of_work(schedule.work(), config) {
             break;
