@@ -41,6 +41,12 @@ pub struct OdometryInput {
     latest: Option<(OdometryFrame, u64)>,
     /// The frame the previous scan was predicted to.
     at_last_scan: Option<OdometryFrame>,
+    /// The first frame received before the first scan: the reading where the start pose
+    /// holds (the vehicle's pose when the controller came up), so that the first scan is
+    /// predicted by the motion since then rather than at constant velocity.
+    start_reading: Option<OdometryFrame>,
+    /// Whether a scan has asked for its increment (the start reading is then spent).
+    scanned: bool,
     counts: OdometryCounts,
 }
 
@@ -62,6 +68,8 @@ impl OdometryInput {
             assembler: FrameAssembler::new(),
             latest: None,
             at_last_scan: None,
+            start_reading: None,
+            scanned: false,
             counts: OdometryCounts {
                 frames: 0,
                 malformed: 0,
@@ -99,6 +107,9 @@ impl OdometryInput {
                     }
                     self.counts.frames += 1;
                     self.latest = Some((f, now_ms));
+                    if !self.scanned && self.start_reading.is_none() {
+                        self.start_reading = Some(f);
+                    }
                 }
                 _ => self.counts.malformed += 1,
             },
@@ -107,7 +118,10 @@ impl OdometryInput {
 
     /// The motion since the previous scan (vehicle frame at the previous scan) when fresh
     /// odometry is at hand at `now_ms` and was at the previous scan; remembers the frame
-    /// for the next scan either way.
+    /// for the next scan either way. The first scan's motion is the one since the first
+    /// frame received (the reading at the start pose; a reading kept across a reset, given
+    /// by [`Self::resume_from`], comes first): a vehicle that is already moving when its
+    /// first scan comes is predicted by its odometry, as every later scan.
     ///
     /// The frame the previous scan used is not fresh, however recent: no frame came in a
     /// whole scan period (a hiccup in the stream, or a frame still on the line when the
@@ -115,16 +129,22 @@ impl OdometryInput {
     /// still (seen in the HIL under host load: a 210 Mahalanobis² rejection). That scan and
     /// the next are predicted at constant velocity instead.
     pub fn increment_for_scan(&mut self, now_ms: u64) -> Option<OdometryIncrement> {
-        let used = self.at_last_scan.map(|f| f.sequence);
+        let reference = if self.scanned {
+            self.at_last_scan
+        } else {
+            self.at_last_scan.or(self.start_reading)
+        };
+        self.scanned = true;
+        let used = reference.map(|f| f.sequence);
         let fresh = self
             .latest
             .filter(|(f, at)| {
                 now_ms.saturating_sub(*at) <= ODOMETRY_STALE_MS && Some(f.sequence) != used
             })
             .map(|(f, _)| f);
-        let previous = core::mem::replace(&mut self.at_last_scan, fresh);
+        self.at_last_scan = fresh;
         Some(OdometryIncrement::between(
-            &pose(&previous?),
+            &pose(&reference?),
             &pose(&fresh?),
         ))
     }

@@ -98,7 +98,14 @@ fn stages(t: &Tunnel, scan: &Scan, guess: Pose2, matcher: MatcherKind) -> MatchR
     let strip = strip_walls(points, &StripConfig::default(), &mut labels);
     assert!(strip.left.is_some() && strip.right.is_some(), "{strip:?}");
     let mut selected = MatchPoints::new();
-    select_match_points(points, &labels, 100, &mut selected);
+    let defaults = LocalizerConfig::default();
+    select_match_points(
+        points,
+        &labels,
+        defaults.max_wall_points,
+        defaults.max_landmark_points,
+        &mut selected,
+    );
     let config = MatchConfig {
         matcher,
         max_work: u32::MAX,

@@ -37,8 +37,23 @@ pub fn scan_times(recording: &Path) -> Result<Vec<f64>, String> {
     Ok(t.rows().iter().map(|r| r[c]).collect())
 }
 
+/// The odometry frame the vehicle sends when the run starts, before any scan: its
+/// cumulative odometry pose where the recording's initial pose holds (the origin, at the
+/// time of the first reading's start). The controller takes the first frame it receives
+/// as the reading at its start pose, and predicts its first scan from there.
+pub fn start_frame() -> OdometryFrame {
+    OdometryFrame {
+        sequence: 0,
+        time_us: 0,
+        x_m: 0.0,
+        y_m: 0.0,
+        theta_rad: 0.0,
+    }
+}
+
 /// The odometry frame the vehicle sends before each scan of `recording` (at `times`, its
-/// [`scan_times`]): its cumulative odometry pose from every reading up to the scan's time.
+/// [`scan_times`]): its cumulative odometry pose from every reading up to the scan's time
+/// (sequence numbers from 1: the [`start_frame`] is 0).
 pub fn odometry_frames(recording: &Path, times: &[f64]) -> Result<Vec<OdometryFrame>, String> {
     let log = odometry_csv::read(&recording.join(files::ODOMETRY)).map_err(|e| e.to_string())?;
     let mut pose = SimPose::default();
@@ -50,7 +65,7 @@ pub fn odometry_frames(recording: &Path, times: &[f64]) -> Result<Vec<OdometryFr
             pose = pose.compose(SimPose::new(dx, dy, dth));
         }
         frames.push(OdometryFrame {
-            sequence: k as u32,
+            sequence: k as u32 + 1,
             time_us: (t_s * 1e6).round() as u64,
             x_m: pose.x_m as f32,
             y_m: pose.y_m as f32,
@@ -78,8 +93,9 @@ impl VehiclePort {
         self.listener.local_addr().map_or(0, |a| a.port())
     }
 
-    /// Waits for QEMU, then for each scan: sends its odometry frame, lets the scanner send
-    /// the scan (`go`), and waits for the controller's pose frame (at most `timeout`).
+    /// Waits for QEMU, sends the [`start_frame`], then for each scan: sends its odometry
+    /// frame, lets the scanner send the scan (`go`), and waits for the controller's pose
+    /// frame (at most `timeout`).
     ///
     /// A controller that restarts instead (a watchdog reset: it then sends stale frames
     /// marked `after_reset` while it sets the scanner up again) has lost the scan it was
@@ -97,6 +113,11 @@ impl VehiclePort {
         stream
             .set_read_timeout(Some(RESEND_EVERY))
             .map_err(PortError::Io)?;
+        let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
+        let start = start_frame()
+            .encode(&mut buf)
+            .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
+        stream.write_all(start).map_err(PortError::Io)?;
         let mut assembler: FrameAssembler<MAX_FRAME_BYTES> = FrameAssembler::new();
         let mut poses = Vec::with_capacity(frames.len());
         // A restart already answered for (its stale frames go on until it tracks again).

@@ -17,8 +17,11 @@ pub struct LocalizerConfig {
     pub sensor: SensorSetup,
     /// Wall stripping.
     pub strip: StripConfig,
-    /// Wall points kept for matching (landmark points are all kept).
+    /// Wall points kept for matching (each the mean of a run of the wall's points).
     pub max_wall_points: u16,
+    /// Landmark points kept for matching, spread evenly over the scan's landmark points
+    /// when it has more (each costs a map search and a share of every iteration).
+    pub max_landmark_points: u16,
     /// Along-tunnel pre-alignment on landmarks.
     pub prealign: PrealignConfig,
     /// Matcher choice (Hausdorff | ICP), K fraction, range noise, iteration limits.
@@ -47,6 +50,7 @@ impl LocalizerConfig {
         sensor: SensorSetup::DEFAULT,
         strip: StripConfig::DEFAULT,
         max_wall_points: 100,
+        max_landmark_points: 64,
         prealign: PrealignConfig::DEFAULT,
         matching: MatchConfig::DEFAULT,
         wall_end: WallEndConfig::DEFAULT,

@@ -361,7 +361,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let labels = self.labels.get(..n).unwrap_or_default();
 
         observer.begin(Stage::Select);
-        select_match_points(points, labels, cfg.max_wall_points, &mut self.match_points);
+        select_match_points(
+            points,
+            labels,
+            cfg.max_wall_points,
+            cfg.max_landmark_points,
+            &mut self.match_points,
+        );
         observer.end(Stage::Select);
 
         observer.begin(Stage::Match);

@@ -9,7 +9,7 @@
 pub enum Stage {
     /// Wall stripping: RANSAC cubic walls and point labels ([`crate::strip::strip_walls`]).
     Strip,
-    /// The points to match: every landmark point and decimated wall points
+    /// The points to match: the landmark points (up to a budget) and decimated wall points
     /// ([`crate::matching::select_match_points`]).
     Select,
     /// Landmark pre-alignment and scan-to-map matching

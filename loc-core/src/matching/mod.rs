@@ -41,13 +41,16 @@
 //! sets (each pulling the pose to the other's side), taking the middle.
 //!
 //! ## What to feed it
-//! Vehicle-frame points from [`select_match_points`]: **all landmark points** plus a
-//! **decimated subset of wall points** (evenly spread along each wall, each the mean of the
+//! Vehicle-frame points from [`select_match_points`]: **the landmark points** (at most 64,
+//! spread evenly over them when a scan has more) plus a **decimated subset of wall points** (evenly spread along each wall, each the mean of the
 //! wall's points over [`WALL_RUN_M`] there, as a voxel filter averages). The walls carry the
 //! heading and the across-tunnel position; landmarks carry the along-tunnel position, and
 //! without them so do, weakly, the far wall points where the tunnel's curvature changes.
 //! Feeding every wall point would drown the landmarks: the K-best trimming would then discard
-//! the (initially misaligned) landmark points first. Decimation also bounds the cost.
+//! the (initially misaligned) landmark points first. Decimation also bounds the cost: each
+//! point costs a map search and a share of every iteration, and F4s on both walls at 50 Hz
+//! put a hundred landmark points in a scan (the cap took the S-bend's match under the
+//! firmware from 0.77 to 0.43 M instructions a scan, README).
 //! Before matching, [`prealign_along_tunnel`] can shift the prediction along the tunnel so that
 //! observed landmark clusters sit on their map landmarks (a landmark is narrower than a
 //! typical along-tunnel prediction error, beyond which the nearest-segment association fails);

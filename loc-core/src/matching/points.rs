@@ -1,4 +1,5 @@
-//! Which scan points a match uses: all landmark points and a decimated subset of wall points,
+//! Which scan points a match uses: the landmark points (up to a budget, spread evenly over
+//! them) and a decimated subset of wall points,
 //! each the mean of a short run of the wall's points (see the module docs of [`super`] for
 //! why).
 
@@ -29,7 +30,9 @@ pub struct SelectionCounts {
     pub unclassified: u16,
 }
 
-/// Fills `out` with every landmark point and at most `max_wall_points` wall points, spread
+/// Fills `out` with at most `max_landmark_points` landmark points (all of them when there
+/// are no more; otherwise spread evenly over them in scan order) and at most
+/// `max_wall_points` wall points, spread
 /// evenly in x along each wall (out to the farthest the stripper labelled) and chosen
 /// independently of their own noise; each is the mean of the wall's points within
 /// [`WALL_RUN_M`] of x from the chosen one on (in scan order). When the stripper found
@@ -40,6 +43,7 @@ pub fn select_match_points<P: VehiclePoint>(
     points: &[P],
     labels: &[PointLabel],
     max_wall_points: u16,
+    max_landmark_points: u16,
     out: &mut MatchPoints,
 ) -> SelectionCounts {
     out.clear();
@@ -70,7 +74,7 @@ pub fn select_match_points<P: VehiclePoint>(
     let wall_budget = usize::from(max_wall_points)
         .min(n_wall)
         .min(MAX_MATCH_POINTS);
-    let landmark_budget = MAX_MATCH_POINTS - wall_budget;
+    let landmark_budget = (MAX_MATCH_POINTS - wall_budget).min(usize::from(max_landmark_points));
     // One pass: every landmark point (up to its budget) and wall points spread in x, half
     // the wall budget per wall (far wall points pin the heading best). The point that
     // crosses the next x step only decides; the wall's next point is taken: whether a point
@@ -85,9 +89,18 @@ pub fn select_match_points<P: VehiclePoint>(
         run: WallRun::NONE,
     });
     let (mut landmarks, mut walls) = (0usize, 0usize);
+    // The i-th of the scan's landmark points is kept when the budget's share of the points
+    // up to it passes an integer: evenly spread, every face of every landmark keeps its
+    // share (the first `landmark_budget` would drop the far landmarks, the along-tunnel
+    // lever).
+    let mut landmark_seen = 0usize;
     for (p, l) in pairs() {
         if l == PointLabel::Landmark {
-            if landmarks < landmark_budget && out.push(p).is_ok() {
+            let i = landmark_seen;
+            landmark_seen += 1;
+            let keep = n_landmark <= landmark_budget
+                || (i + 1) * landmark_budget / n_landmark > i * landmark_budget / n_landmark;
+            if keep && landmarks < landmark_budget && out.push(p).is_ok() {
                 landmarks += 1;
             }
         } else if l.is_wall() {
@@ -220,7 +233,7 @@ mod tests {
             *l = PointLabel::Landmark;
         }
         let mut out = MatchPoints::new();
-        let c = select_match_points(&pts, &labels, 40, &mut out);
+        let c = select_match_points(&pts, &labels, 40, 512, &mut out);
         assert_eq!(c.landmark, 20);
         assert!(c.wall <= 40 && c.wall >= 30, "{c:?}");
         assert_eq!(out.len(), usize::from(c.landmark + c.wall));
@@ -248,7 +261,7 @@ mod tests {
             });
             let labels = [PointLabel::RightWall; 900];
             let mut out = MatchPoints::new();
-            select_match_points(&pts, &labels, 100, &mut out);
+            select_match_points(&pts, &labels, 100, 512, &mut out);
             for p in &out {
                 // Positive: farther from the sensor than the wall.
                 let off = f64::from(wall_y_m - p.y_m);
@@ -285,7 +298,7 @@ mod tests {
                 Point2::new(r * c, r * s)
             });
             let mut out = MatchPoints::new();
-            let c = select_match_points(&pts, &[PointLabel::RightWall; 900], 100, &mut out);
+            let c = select_match_points(&pts, &[PointLabel::RightWall; 900], 100, 512, &mut out);
             assert_eq!(out.len(), usize::from(c.wall));
             for p in &out {
                 if p.x_m.abs() < 2.0 {
@@ -302,14 +315,48 @@ mod tests {
         assert!(n_near > 100 && n_far > 100, "{n_near} near, {n_far} far");
     }
 
+    /// Past the landmark budget the landmark points kept are spread over all of them: every
+    /// landmark in view keeps its share (the far ones fix the position along the tunnel).
+    #[test]
+    fn landmark_points_past_the_budget_are_spread_evenly() {
+        // Four landmarks of 30 points each, between wall points.
+        let mut pts = [Point2::ORIGIN; 400];
+        let mut labels = [PointLabel::LeftWall; 400];
+        for (i, (p, l)) in pts.iter_mut().zip(labels.iter_mut()).enumerate() {
+            *p = Point2::new(i as f32 * 0.05, 2.0);
+            if (i / 50) % 2 == 1 && i % 50 < 30 {
+                *l = PointLabel::Landmark;
+            }
+        }
+        let mut out = MatchPoints::new();
+        let c = select_match_points(&pts, &labels, 100, 64, &mut out);
+        assert_eq!(c.landmark, 64);
+        // Each landmark keeps 16 of its 30 points.
+        for k in 0..4 {
+            let (lo, hi) = ((100 * k + 50) as f32 * 0.05, (100 * k + 79) as f32 * 0.05);
+            let kept = out
+                .iter()
+                .filter(|p| p.x_m >= lo - 1e-4 && p.x_m <= hi + 1e-4 && p.y_m == 2.0)
+                .filter(|p| {
+                    let i = (p.x_m / 0.05).round() as usize;
+                    labels[i] == PointLabel::Landmark
+                })
+                .count();
+            assert_eq!(kept, 16, "landmark {k}");
+        }
+        // Within the budget every landmark point is kept.
+        let c = select_match_points(&pts, &labels, 100, 120, &mut out);
+        assert_eq!(c.landmark, 120);
+    }
+
     #[test]
     fn falls_back_to_outliers_without_walls() {
         let pts = [Point2::new(1.0, 1.0); 100];
         let labels = [PointLabel::Outlier; 100];
         let mut out = MatchPoints::new();
-        let c = select_match_points(&pts, &labels, 30, &mut out);
+        let c = select_match_points(&pts, &labels, 30, 512, &mut out);
         assert!(c.unclassified >= 25 && c.unclassified <= 30);
-        let c = select_match_points::<Point2>(&[], &[], 30, &mut out);
+        let c = select_match_points::<Point2>(&[], &[], 30, 512, &mut out);
         assert_eq!(c, SelectionCounts::default());
         assert!(out.is_empty());
     }

@@ -155,7 +155,7 @@ fn guided_with(
     let mut labels = [PointLabel::Outlier; 1141];
     let strip = strip_walls(&pts, &StripConfig::default(), &mut labels);
     let mut sel = MatchPoints::new();
-    select_match_points(&pts, &labels, 100, &mut sel);
+    select_match_points(&pts, &labels, 100, 512, &mut sel);
     let mut ws = MatchWorkspace::new();
     let r = match_scan_with_prealign(
         map,
@@ -396,7 +396,7 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
         let mut labels = [PointLabel::Outlier; 1141];
         strip_walls(&scan, &StripConfig::default(), &mut labels);
         let mut pts = MatchPoints::new();
-        select_match_points(&scan, &labels, 100, &mut pts);
+        select_match_points(&scan, &labels, 100, 512, &mut pts);
         let r = match_scan(&map, &pts, guess, &cfg, &mut MatchWorkspace::new()).unwrap();
         let along_m = r.pose.x_m - truth.x_m;
         let sd_m = r.covariance.m11.sqrt();

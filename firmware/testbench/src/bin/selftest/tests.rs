@@ -60,6 +60,10 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         no_new_odometry_frame_is_no_increment,
     );
     runner.run(
+        "the_first_scan_is_predicted_from_the_first_odometry_frame",
+        first_scan_is_predicted_from_the_first_frame,
+    );
+    runner.run(
         "an_outage_is_bridged_by_odometry_and_a_restarted_sender_is_not",
         outage_is_bridged_by_odometry,
     );
@@ -313,6 +317,54 @@ fn no_new_odometry_frame_is_no_increment() -> TestResult {
     check(
         loc_core::math::abs(inc.dx_m - 0.1) < 1e-6,
         "wrong increment after the gap",
+    )
+}
+
+/// The first frame received is the reading at the start pose: a vehicle already moving
+/// when its first scan comes gets that scan predicted by the motion since (not at constant
+/// velocity from a standstill), and the start reading is spent on that scan.
+fn first_scan_is_predicted_from_the_first_frame() -> TestResult {
+    let mut input = OdometryInput::new();
+    let frame = |sequence: u32, x_m: f32, theta_rad: f32| controller_wire::OdometryFrame {
+        sequence,
+        time_us: u64::from(sequence) * 20_000,
+        x_m,
+        y_m: 0.0,
+        theta_rad,
+    };
+    let push = |input: &mut OdometryInput, f: controller_wire::OdometryFrame, now_ms: u64| {
+        let mut buf = [0u8; controller_wire::MAX_ODOMETRY_FRAME_BYTES];
+        let Ok(bytes) = f.encode(&mut buf) else {
+            return Err("odometry frame did not encode");
+        };
+        for &b in bytes.iter() {
+            input.push(b, now_ms);
+        }
+        Ok(())
+    };
+    push(&mut input, frame(0, 0.0, 0.0), 0)?;
+    push(&mut input, frame(1, 0.04, 0.001), 20)?;
+    push(&mut input, frame(2, 0.08, 0.002), 40)?;
+    let inc = input
+        .increment_for_scan(40)
+        .ok_or("the first scan had no increment from the start reading")?;
+    check(
+        loc_core::math::abs(inc.dx_m - 0.08) < 1e-5
+            && loc_core::math::abs(inc.dtheta_rad - 0.002) < 1e-6,
+        "the first scan's increment is not the motion since the first frame",
+    )?;
+    push(&mut input, frame(3, 0.12, 0.003), 60)?;
+    let inc = input
+        .increment_for_scan(60)
+        .ok_or("the second scan had no increment")?;
+    check(
+        loc_core::math::abs(inc.dx_m - 0.04) < 1e-4,
+        "the second scan's increment is not the motion since the first scan",
+    )?;
+    // The start reading is spent: after a gap, no increment reaches back to it.
+    check(
+        input.increment_for_scan(300).is_none(),
+        "a scan without fresh odometry took an increment",
     )
 }
 
