@@ -135,7 +135,7 @@ impl OdometryInput {
             self.at_last_scan.or(self.start_reading)
         };
         self.scanned = true;
-        let used = reference.map(|f| f.sequence);
+        let used = self.at_last_scan.map(|f| f.sequence);
         let fresh = self
             .latest
             .filter(|(f, at)| {
@@ -143,10 +143,11 @@ impl OdometryInput {
             })
             .map(|(f, _)| f);
         self.at_last_scan = fresh;
-        Some(OdometryIncrement::between(
-            &pose(&reference?),
-            &pose(&fresh?),
-        ))
+        let (reference, fresh) = (reference?, fresh?);
+        // The start reading is all that came: no motion measured yet (the next scan's is
+        // taken from it).
+        (reference.sequence != fresh.sequence)
+            .then(|| OdometryIncrement::between(&pose(&reference), &pose(&fresh)))
     }
 
     /// The reading the last scan was predicted to (`None`: it had no fresh odometry).
