@@ -265,27 +265,45 @@ fn odometry_arrives(board: &mut SelectedBoard) -> TestResult {
     )
 }
 
+/// An odometry frame on the x axis: `sequence`, sent every `period_us`.
+fn odometry_frame(
+    sequence: u32,
+    period_us: u64,
+    x_m: f32,
+    theta_rad: f32,
+) -> controller_wire::OdometryFrame {
+    controller_wire::OdometryFrame {
+        sequence,
+        time_us: u64::from(sequence) * period_us,
+        x_m,
+        y_m: 0.0,
+        theta_rad,
+    }
+}
+
+/// Feeds `frame`'s bytes to `input` as received at `now_ms`.
+fn push_frame(
+    input: &mut OdometryInput,
+    frame: controller_wire::OdometryFrame,
+    now_ms: u64,
+) -> TestResult {
+    let mut buf = [0u8; controller_wire::MAX_ODOMETRY_FRAME_BYTES];
+    let Ok(bytes) = frame.encode(&mut buf) else {
+        return Err("odometry frame did not encode");
+    };
+    for &b in bytes.iter() {
+        input.push(b, now_ms);
+    }
+    Ok(())
+}
+
 /// A scan for which no new odometry frame arrived (the previous scan's frame is still the
 /// latest) gets no increment — a zero one would say the vehicle stood still — nor does the
 /// next (its increment would span a scan already predicted); then odometry resumes.
 fn no_new_odometry_frame_is_no_increment() -> TestResult {
     let mut input = OdometryInput::new();
     let push = |input: &mut OdometryInput, sequence: u32, x_m: f32, now_ms: u64| {
-        let frame = controller_wire::OdometryFrame {
-            sequence,
-            time_us: u64::from(sequence) * 40_000,
-            x_m,
-            y_m: 0.0,
-            theta_rad: 0.0,
-        };
-        let mut buf = [0u8; controller_wire::MAX_ODOMETRY_FRAME_BYTES];
-        let Ok(bytes) = frame.encode(&mut buf) else {
-            return Err("odometry frame did not encode");
-        };
-        for &b in bytes.iter() {
-            input.push(b, now_ms);
-        }
-        Ok(())
+        push_frame(input, odometry_frame(sequence, 40_000, x_m, 0.0), now_ms)
     };
     push(&mut input, 1, 0.0, 0)?;
     check(
@@ -325,23 +343,9 @@ fn no_new_odometry_frame_is_no_increment() -> TestResult {
 /// velocity from a standstill), and the start reading is spent on that scan.
 fn first_scan_is_predicted_from_the_first_frame() -> TestResult {
     let mut input = OdometryInput::new();
-    let frame = |sequence: u32, x_m: f32, theta_rad: f32| controller_wire::OdometryFrame {
-        sequence,
-        time_us: u64::from(sequence) * 20_000,
-        x_m,
-        y_m: 0.0,
-        theta_rad,
-    };
-    let push = |input: &mut OdometryInput, f: controller_wire::OdometryFrame, now_ms: u64| {
-        let mut buf = [0u8; controller_wire::MAX_ODOMETRY_FRAME_BYTES];
-        let Ok(bytes) = f.encode(&mut buf) else {
-            return Err("odometry frame did not encode");
-        };
-        for &b in bytes.iter() {
-            input.push(b, now_ms);
-        }
-        Ok(())
-    };
+    let frame =
+        |sequence: u32, x_m: f32, theta_rad: f32| odometry_frame(sequence, 20_000, x_m, theta_rad);
+    let push = push_frame;
     push(&mut input, frame(0, 0.0, 0.0), 0)?;
     push(&mut input, frame(1, 0.04, 0.001), 20)?;
     push(&mut input, frame(2, 0.08, 0.002), 40)?;
