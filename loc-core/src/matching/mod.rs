@@ -41,9 +41,10 @@
 //! sets (each pulling the pose to the other's side), taking the middle.
 //!
 //! ## What to feed it
-//! Vehicle-frame points from [`select_match_points`]: **the landmark points** (at most 64,
-//! spread evenly over them when a scan has more) plus a **decimated subset of wall points** (evenly spread along each wall, each the mean of the
-//! wall's points over [`WALL_RUN_M`] there, as a voxel filter averages). The walls carry the
+//! Vehicle-frame points from [`select_match_points`]: **the landmark points** (at most
+//! `LocalizerConfig::max_landmark_points`, 64, spread evenly over them when a scan has more)
+//! plus a **decimated subset of wall points** (evenly spread along each wall, each the mean
+//! of the wall's points over [`WALL_RUN_M`] there, as a voxel filter averages). The walls carry the
 //! heading and the across-tunnel position; landmarks carry the along-tunnel position, and
 //! without them so do, weakly, the far wall points where the tunnel's curvature changes.
 //! Feeding every wall point would drown the landmarks: the K-best trimming would then discard
