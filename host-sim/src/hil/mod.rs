@@ -30,7 +30,8 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use lms5xx_emulator::{DialectMode, Emulator, EmulatorConfig, RecordingSource};
+use lidar_driver::recording::Recording;
+use lms5xx_emulator::{DeviceIdentity, DialectMode, Emulator, EmulatorConfig, RecordingSource};
 
 use crate::closed_loop::RunOptions;
 use crate::record::{self, files};
@@ -225,10 +226,17 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
     // 2. The map flash region's contents.
     let flashed = flash::write(scenario, &map, &recording, out).map_err(|e| host(&e))?;
     // 3. The links and QEMU.
-    let scans = RecordingSource::from_file(recording.join(files::SCANNER))
+    let scanner = Recording::read_file(recording.join(files::SCANNER)).map_err(|e| host(&e))?;
+    let scans = RecordingSource::from_recording(&scanner)
         .map_err(|e| host(&e))?
         .scans()
         .to_vec();
+    // The emulated scanner is set up as the recorded one was (its first scan's frequency and
+    // angular step): with the LMS511 capture's 25 Hz and 1/6° it would resample a 50 Hz
+    // drive's 1/3° scans onto twice the beams, each range at an angle up to 1/12° off its
+    // own (≈ 1.5 mm a metre of range), and the firmware would localise on those.
+    let identity = DeviceIdentity::from_recording(&scanner);
+    drop(scanner);
     let times = vehicle_port::scan_times(&recording).map_err(|e| host(&e))?;
     let frames = vehicle_port::odometry_frames(&recording, &times).map_err(|e| host(&e))?;
     let (go, wait) = mpsc::channel::<usize>();
@@ -243,6 +251,8 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
     let emulator = Emulator::start(
         EmulatorConfig {
             dialect: options.dialect,
+            rate_hz: scenario.lidar.rate.frequency_hz() as f32,
+            identity,
             ..EmulatorConfig::default()
         },
         source,
