@@ -114,20 +114,16 @@ impl VehiclePort {
             .set_read_timeout(Some(RESEND_EVERY))
             .map_err(PortError::Io)?;
         let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
-        let start = start_frame()
-            .encode(&mut buf)
-            .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
-        stream.write_all(start).map_err(PortError::Io)?;
+        stream
+            .write_all(encode(&start_frame(), &mut buf)?)
+            .map_err(PortError::Io)?;
         let mut assembler: FrameAssembler<MAX_FRAME_BYTES> = FrameAssembler::new();
         let mut poses = Vec::with_capacity(frames.len());
         // A restart already answered for (its stale frames go on until it tracks again).
         let mut restart_handled = false;
         let mut k = 0;
         while let Some(frame) = frames.get(k) {
-            let mut buf = [0u8; MAX_ODOMETRY_FRAME_BYTES];
-            let bytes = frame
-                .encode(&mut buf)
-                .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
+            let bytes = encode(frame, &mut buf)?;
             stream.write_all(bytes).map_err(PortError::Io)?;
             if go.send(k).is_err() {
                 return Err(PortError::NoPose { scan: k });
@@ -150,6 +146,17 @@ impl VehiclePort {
         }
         Ok(poses)
     }
+}
+
+/// `frame`'s bytes on the wire, in `buf`.
+fn encode<'b>(
+    frame: &OdometryFrame,
+    buf: &'b mut [u8; MAX_ODOMETRY_FRAME_BYTES],
+) -> Result<&'b [u8], PortError> {
+    let bytes = frame
+        .encode(buf)
+        .map_err(|e| PortError::Io(io::Error::other(e.to_string())))?;
+    Ok(&*bytes)
 }
 
 fn accept(listener: &TcpListener, timeout: Duration) -> Result<TcpStream, PortError> {

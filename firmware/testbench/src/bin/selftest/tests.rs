@@ -345,10 +345,9 @@ fn first_scan_is_predicted_from_the_first_frame() -> TestResult {
     let mut input = OdometryInput::new();
     let frame =
         |sequence: u32, x_m: f32, theta_rad: f32| odometry_frame(sequence, 20_000, x_m, theta_rad);
-    let push = push_frame;
-    push(&mut input, frame(0, 0.0, 0.0), 0)?;
-    push(&mut input, frame(1, 0.04, 0.001), 20)?;
-    push(&mut input, frame(2, 0.08, 0.002), 40)?;
+    push_frame(&mut input, frame(0, 0.0, 0.0), 0)?;
+    push_frame(&mut input, frame(1, 0.04, 0.001), 20)?;
+    push_frame(&mut input, frame(2, 0.08, 0.002), 40)?;
     let inc = input
         .increment_for_scan(40)
         .ok_or("the first scan had no increment from the start reading")?;
@@ -357,7 +356,7 @@ fn first_scan_is_predicted_from_the_first_frame() -> TestResult {
             && loc_core::math::abs(inc.dtheta_rad - 0.002) < 1e-6,
         "the first scan's increment is not the motion since the first frame",
     )?;
-    push(&mut input, frame(3, 0.12, 0.003), 60)?;
+    push_frame(&mut input, frame(3, 0.12, 0.003), 60)?;
     let inc = input
         .increment_for_scan(60)
         .ok_or("the second scan had no increment")?;
