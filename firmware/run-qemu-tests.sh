@@ -242,22 +242,24 @@ if cargo build --release --quiet --bin controller \
       fail "host-sim hil in CoLa-$dialect (status $status): ${json:0:300}"
     fi
   done
-  # A 50 Hz drive: the emulated scanner must send the scans as recorded (1/3°). Set up at
-  # its power-up 25 Hz and 1/6° it reshaped them onto twice the beams at angles up to 1/12°
-  # off, and the firmware scored 6.3 mm on these 4 m against run's 2.5 mm; the same scans
-  # give the same poses to the micrometre.
+  # A 75 Hz drive: the emulated scanner must send the scans as recorded (0.5°), and the
+  # vehicle's odometry frames must carry the pose at each scan's time, as replay predicts it
+  # (75 Hz scans between 100 Hz readings). Set up at its power-up 25 Hz and 1/6° the
+  # emulator once reshaped 50 Hz scans onto twice the beams at angles up to 1/12° off (the
+  # firmware scored 6.3 mm on 4 m at 50 Hz against run's 2.5 mm); the same scans and the
+  # same odometry give the same poses to the micrometre.
   run_rms=$(cd .. && target/release/host-sim run --scenario paper-10m --landmarks p1 --seed 7 \
-    --rate 50 --length 4 --json --quiet | field position_rms_m)
-  json=$(hil --scenario paper-10m --landmarks p1 --rate 50 --length 4)
+    --rate 75 --length 4 --json --quiet | field position_rms_m)
+  json=$(hil --scenario paper-10m --landmarks p1 --rate 75 --length 4)
   status=$?
   rms=$(field position_rms_m <<<"$json" 2>/dev/null)
   imax=$(field instructions_per_scan_max <<<"$json" 2>/dev/null)
-  echo "hil at 50 Hz: position RMS ${rms:-?} m (host-sim run: $run_rms m), instructions per scan max ${imax:-?}"
+  echo "hil at 75 Hz: position RMS ${rms:-?} m (host-sim run: $run_rms m), instructions per scan max ${imax:-?}"
   if [ "$status" -eq 0 ] && [ -n "$rms" ] && [ -n "$imax" ] && [ "$imax" -le 1500000 ] \
     && python3 -c "import sys; sys.exit(0 if abs($rms - $run_rms) <= 5e-5 else 1)"; then
-    pass "host-sim hil at 50 Hz: the scans reach the firmware as recorded (its poses scored like run's, 4 m)"
+    pass "host-sim hil at 75 Hz: the scans and the odometry at their times reach the firmware as recorded (its poses scored like run's, 4 m)"
   else
-    fail "host-sim hil at 50 Hz (status $status): ${json:0:300}"
+    fail "host-sim hil at 75 Hz (status $status): ${json:0:300}"
   fi
   echo "--> host-sim hil with a stall: the watchdog resets the controller mid-drive, it bridges the outage by odometry and tracks on"
   # Built to hang once after 40 scans; the product is built again for the tests after. The

@@ -9,8 +9,13 @@
 //! its pose frames say so (`MotionSource::ConstantVelocity`).
 //!
 //! Timing: the latest frame received before the scan telegram is taken as the odometry at
-//! the scan (the telegram arrives a few milliseconds after the scan ends; at 2 m/s that is
-//! millimetres, within the odometry noise model). On real silicon the port must not lose
+//! the scan. A vehicle computer must therefore send its pose as each scan is taken (as
+//! `host-sim hil` does, predicted to the scan's time as `host-sim replay` predicts): frames
+//! sent at their own rate would put each scan up to one frame period of motion (1.5 cm at
+//! 3 m/s and 200 Hz) from where the filter predicted it, and the next frame would add that
+//! motion again — the along-tunnel error host-sim's replay showed at 35 and 75 Hz scans with
+//! 100 Hz odometry before it predicted to the scan's time (top-level README). Extrapolating
+//! the last frame to the telegram is not done yet. On real silicon the port must not lose
 //! bytes while a scan is processed (≈ 9 ms at 168 MHz, ≈ 100 bytes at 115200 baud):
 //! receive by DMA or interrupt into a ring buffer; under QEMU the UART holds the line.
 

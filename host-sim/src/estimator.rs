@@ -98,6 +98,9 @@ pub struct LocCoreEstimator<'m> {
     echo: EchoSelection,
     last_reset: SimPose,
     gaps: GapTracker,
+    /// The last odometry reading's whole increment (vehicle frame at its start): the rate a
+    /// scan between readings is predicted at ([`GapTracker::lead`]).
+    last_increment: Option<(f64, f64, f64)>,
 }
 
 impl<'m> LocCoreEstimator<'m> {
@@ -111,6 +114,7 @@ impl<'m> LocCoreEstimator<'m> {
             echo: scenario.localizer.echo.selection(),
             last_reset: SimPose::default(),
             gaps: GapTracker::default(),
+            last_increment: None,
         }
     }
 
@@ -120,6 +124,17 @@ impl<'m> LocCoreEstimator<'m> {
     pub fn without_initial_pose(mut self) -> Self {
         self.without_initial_pose = true;
         self
+    }
+
+    /// Predicts with `fraction` of an odometry increment `delta` (`dx_m, dy_m, dtheta_rad`,
+    /// vehicle frame); a rejected increment leaves the state unchanged, as on the vehicle.
+    fn predict_share(&mut self, delta: (f64, f64, f64), fraction: f64) {
+        let inc = OdometryIncrement {
+            dx_m: (delta.0 * fraction) as f32,
+            dy_m: (delta.1 * fraction) as f32,
+            dtheta_rad: (delta.2 * fraction) as f32,
+        };
+        let _ = self.localizer.predict_odometry(&inc);
     }
 
     /// Coasts across a gap in the odometry (a rejected coast leaves the state unchanged).
@@ -145,6 +160,7 @@ impl Estimator for LocCoreEstimator<'_> {
     fn reset(&mut self, pose: SimPose, sigma_m: f64, sigma_rad: f64) {
         self.last_reset = pose;
         self.gaps.reset();
+        self.last_increment = None;
         let (v, w) = ((sigma_m * sigma_m) as f32, (sigma_rad * sigma_rad) as f32);
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(v, v, w));
         let p = Pose2::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32);
@@ -160,18 +176,18 @@ impl Estimator for LocCoreEstimator<'_> {
     fn odometry(&mut self, s: &OdometrySample) {
         let (gap, fraction) = self.gaps.reading(s);
         self.coast(gap);
-        let inc = OdometryIncrement {
-            dx_m: (s.delta.0 * fraction) as f32,
-            dy_m: (s.delta.1 * fraction) as f32,
-            dtheta_rad: (s.delta.2 * fraction) as f32,
-        };
-        // A rejected increment leaves the state unchanged, as on the vehicle.
-        let _ = self.localizer.predict_odometry(&inc);
+        self.last_increment = Some(s.delta);
+        self.predict_share(s.delta, fraction);
     }
 
     fn scan(&mut self, scan: &LidarScan) -> EstimatorOutput {
         let gap = self.gaps.scan(scan.t_s);
         self.coast(gap);
+        // Up to the scan's own time at the last reading's rate (the next reading keeps the
+        // rest of its interval).
+        if let (Some(fraction), Some(delta)) = (self.gaps.lead(scan.t_s), self.last_increment) {
+            self.predict_share(delta, fraction);
+        }
         let loaded = scan_input::load_values(
             &scan.layout,
             scan.selected(self.echo),
@@ -202,5 +218,44 @@ impl Estimator for LocCoreEstimator<'_> {
             status,
             protection: Some(self.localizer.protection()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::closed_loop::RunOptions;
+    use crate::lidar::ScanRate;
+    use crate::scenario::named::named;
+    use crate::session::{run_scenario, EstimatorChoice};
+
+    /// RMS of the change, from one scan to the next, of the localiser's error along
+    /// `paper-10m`'s straight tunnel (world x) over its first 4 m at `rate`, metres.
+    fn along_jumps_m(rate: ScanRate) -> f64 {
+        let mut s = named("paper-10m").unwrap();
+        s.lidar.rate = rate;
+        s.drive.end_m = s.drive.start_m + 4.0;
+        let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).unwrap();
+        let err: Vec<f64> = log
+            .samples
+            .iter()
+            .map(|x| x.estimate.x_m - x.truth.x_m)
+            .collect();
+        let jumps: Vec<f64> = err.windows(2).map(|w| w[1] - w[0]).collect();
+        (jumps.iter().map(|j| j * j).sum::<f64>() / jumps.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn scans_between_odometry_readings_are_predicted_to_their_own_time() {
+        // 75 Hz scans fall 0, 3.3 or 6.7 ms after a 100 Hz reading. Predicted only to the
+        // last reading, each was matched up to 7 mm (at 1 m/s) from the filter's prediction
+        // and the next reading added that motion again: the error along jumped from scan to
+        // scan by 3.6 mm RMS (0.6 mm at 25 Hz, whose scans fall on readings); now 0.45 mm.
+        let at_25 = along_jumps_m(ScanRate::Hz25);
+        let at_75 = along_jumps_m(ScanRate::Hz75);
+        assert!(at_25 < 1e-3, "{at_25}");
+        assert!(
+            at_75 < 2.0 * at_25,
+            "75 Hz {at_75} m against 25 Hz {at_25} m"
+        );
     }
 }

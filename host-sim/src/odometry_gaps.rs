@@ -67,6 +67,26 @@ impl GapTracker {
         (gap, fraction)
     }
 
+    /// At a scan taken at `t_s` within the normal wait for the next reading (after
+    /// [`GapTracker::scan`] found no gap): the share of the last reading's interval between
+    /// the end of the covered time and the scan, to predict at that reading's rate so that
+    /// the scan is matched at its own time, not at the last reading's; the time up to the
+    /// scan is then covered (the next reading applies only the rest of its own interval).
+    /// `None` when the scan is not after the covered time.
+    ///
+    /// Without it, scans and readings at rates that are not multiples (35 or 75 Hz scans,
+    /// 100 Hz odometry) were matched up to one reading's motion from where the filter had
+    /// predicted them, and the next reading added that motion again: on 200 m of
+    /// `tunnel-1km` the position along jumped by ±1 cm from scan to scan.
+    pub fn lead(&mut self, t_s: f64) -> Option<f64> {
+        let (until, (_, _, dt)) = (self.covered_until_s?, self.last?);
+        let ahead_s = t_s - until;
+        (ahead_s > 0.0 && dt > 0.0).then(|| {
+            self.covered_until_s = Some(t_s);
+            ahead_s / dt
+        })
+    }
+
     /// At a scan taken at `t_s`: the gap since the last reading when it is longer than
     /// [`GAP_BEFORE_SCAN_DT`] intervals (the time up to the scan is then covered).
     pub fn scan(&mut self, t_s: f64) -> Option<Gap> {
@@ -110,6 +130,28 @@ mod tests {
         let gap = gap.unwrap();
         assert!((gap.unobserved_s - 1.0).abs() < 1e-9);
         assert_eq!((gap.v_mps, gap.omega_radps, f), (2.0, 0.1, 1.0));
+    }
+
+    #[test]
+    fn a_scan_between_readings_leads_to_its_time_and_the_next_reading_keeps_the_rest() {
+        let mut g = GapTracker::default();
+        assert_eq!(g.lead(0.005), None, "no reading yet: nothing to lead with");
+        g.reading(&reading(1.0));
+        // A 75 Hz scan 4 ms after the reading: 0.4 of the last reading's interval ahead.
+        assert_eq!(g.scan(1.004), None);
+        let f = g.lead(1.004).unwrap();
+        assert!((f - 0.4).abs() < 1e-9, "{f}");
+        // A second scan before the next reading leads only from the first.
+        let f = g.lead(1.008).unwrap();
+        assert!((f - 0.4).abs() < 1e-9, "{f}");
+        assert_eq!(g.lead(1.008), None, "nothing left to lead");
+        // The next reading (0.01 s interval ending at 1.01 s) keeps the 2 ms after the scan.
+        let (gap, f) = g.reading(&reading(1.01));
+        assert_eq!(gap, None);
+        assert!((f - 0.2).abs() < 1e-9, "{f}");
+        // A scan at a reading's time needs no lead.
+        assert_eq!(g.lead(1.01), None);
+        assert_eq!(g.reading(&reading(1.02)), (None, 1.0));
     }
 
     #[test]

@@ -156,6 +156,34 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Framer<B> {
         n
     }
 
+    /// The free space after the buffered bytes, for a transport to read into directly (no
+    /// staging copy); [`Framer::commit`] then takes what was written. The unframed bytes
+    /// are moved to the buffer's start first when fewer than `min_len` bytes are free after
+    /// them, or none at all (so the move happens about once a frame, not on every read).
+    /// Empty only when the buffer is full: drain with `next_frame` first.
+    pub fn spare_mut(&mut self, min_len: usize) -> &mut [u8] {
+        if self.start == self.end {
+            // Nothing unframed: start over at the front, no bytes to move.
+            self.start = 0;
+            self.end = 0;
+        } else if self.capacity() - self.end < min_len.max(1) && self.start > 0 {
+            self.buf.as_mut().copy_within(self.start..self.end, 0);
+            self.end -= self.start;
+            self.start = 0;
+        }
+        let end = self.end;
+        self.buf.as_mut().get_mut(end..).unwrap_or_default()
+    }
+
+    /// Takes the first `n` bytes of [`Framer::spare_mut`] as received (clamped to the free
+    /// space). Like [`Framer::push`], it re-opens a finished stream.
+    pub fn commit(&mut self, n: usize) {
+        self.finished = false;
+        let n = n.min(self.capacity() - self.end);
+        self.end += n;
+        self.stats.bytes_in += n as u64;
+    }
+
     /// Marks the end of the stream: an incomplete frame at the head is then dropped (counted as
     /// truncated) and the bytes after its start marker are scanned again, so nothing waits for
     /// data that will not come.
@@ -414,6 +442,33 @@ mod tests {
         );
         assert_eq!(f.stats().bad_length, 1);
         assert_eq!(f.stats().frames_good(), 0);
+    }
+
+    #[test]
+    fn spare_space_moves_the_unframed_bytes_only_when_short() {
+        let good = colab(b"sRN ODoprh"); // 19 bytes
+        let mut f = Framer::new([0u8; 64]);
+        let spare = f.spare_mut(1);
+        assert_eq!(spare.len(), 64);
+        spare[..19].copy_from_slice(&good);
+        spare[19..24].copy_from_slice(&good[..5]);
+        f.commit(24);
+        assert_eq!(f.next_frame(), Some(Ok(Frame::new_checked(&good).unwrap())));
+        assert_eq!(f.next_frame(), None);
+        // Five unframed bytes at 19..24: 40 free after them, enough for a small read.
+        assert_eq!(f.spare_mut(16).len(), 40);
+        // Asked for more than that, the five move to the front.
+        let spare = f.spare_mut(48);
+        assert_eq!(spare.len(), 59);
+        spare[..14].copy_from_slice(&good[5..]);
+        f.commit(14);
+        assert_eq!(f.next_frame(), Some(Ok(Frame::new_checked(&good).unwrap())));
+        // Drained: the whole buffer again, and a commit past the end is clamped.
+        assert_eq!(f.spare_mut(0).len(), 64);
+        f.commit(1000);
+        assert_eq!(f.buffered(), 64);
+        assert!(f.spare_mut(1).is_empty());
+        assert_eq!(f.stats().bytes_in, 24 + 14 + 64);
     }
 
     #[test]

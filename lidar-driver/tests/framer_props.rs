@@ -142,8 +142,57 @@ fn run(stream: &[u8], chunks: &[usize]) -> (Vec<Vec<u8>>, lidar_driver::FramerSt
     (out, *f.stats())
 }
 
+/// As [`run`], but the way a transport fills the framer: reads of up to `chunks[i]` bytes
+/// straight into [`Framer::spare_mut`] (asked for at least `min_len` free bytes), then
+/// [`Framer::commit`]; frames drained after every read.
+fn run_in_place(
+    stream: &[u8],
+    chunks: &[usize],
+    min_len: usize,
+) -> (Vec<Vec<u8>>, lidar_driver::FramerStats) {
+    let mut f = Framer::new(vec![0u8; 16 * 1024]);
+    let mut out = Vec::new();
+    let mut rest = stream;
+    let mut i = 0;
+    let mut drain = |f: &mut Framer<Vec<u8>>| {
+        while let Some(r) = f.next_frame() {
+            if let Ok(fr) = r {
+                out.push(fr.as_bytes().to_vec())
+            }
+        }
+    };
+    while !rest.is_empty() {
+        let spare = f.spare_mut(min_len);
+        assert!(!spare.is_empty(), "drained framer with no free space");
+        let n = chunks[i % chunks.len()].min(rest.len()).min(spare.len());
+        i += 1;
+        spare[..n].copy_from_slice(&rest[..n]);
+        f.commit(n);
+        rest = &rest[n..];
+        drain(&mut f);
+    }
+    f.finish();
+    drain(&mut f);
+    (out, *f.stats())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    #[test]
+    fn reading_into_the_spare_space_frames_like_pushing(
+        items in prop::collection::vec((any::<usize>(), damage(), garbage()), 1..24),
+        chunks in prop::collection::vec(prop_oneof![Just(1usize), 1usize..64, 64usize..9000], 1..8),
+        min_len in prop_oneof![Just(0usize), Just(1usize), 1usize..2048, Just(16 * 1024)],
+    ) {
+        let Some(case) = build(&items) else { return Ok(()) };
+        let pushed = run(&case.stream, &chunks);
+        let (got, stats) = run_in_place(&case.stream, &chunks, min_len);
+        prop_assert!(got == case.expected, "frames differ");
+        prop_assert_eq!(got, pushed.0);
+        prop_assert_eq!(stats.bytes_in, case.stream.len() as u64);
+        prop_assert_eq!(stats.frames_bad(), pushed.1.frames_bad());
+    }
 
     #[test]
     fn damaged_frames_alone_are_lost(

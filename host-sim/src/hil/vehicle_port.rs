@@ -13,6 +13,7 @@ use controller_wire::{
     MAX_ODOMETRY_FRAME_BYTES,
 };
 
+use crate::odometry_gaps::GapTracker;
 use crate::record::csv_table::CsvTable;
 use crate::record::{files, odometry_csv};
 use crate::vehicle::SimPose;
@@ -52,17 +53,28 @@ pub fn start_frame() -> OdometryFrame {
 }
 
 /// The odometry frame the vehicle sends before each scan of `recording` (at `times`, its
-/// [`scan_times`]): its cumulative odometry pose from every reading up to the scan's time
-/// (sequence numbers from 1: the [`start_frame`] is 0).
+/// [`scan_times`]): its cumulative odometry pose at the scan's time — every reading up to
+/// it, then on at the last reading's rate up to the scan, shared out between readings and
+/// scans as `replay` does ([`GapTracker`]), so that the controller predicts each scan as the
+/// replay does (sequence numbers from 1: the [`start_frame`] is 0).
 pub fn odometry_frames(recording: &Path, times: &[f64]) -> Result<Vec<OdometryFrame>, String> {
     let log = odometry_csv::read(&recording.join(files::ODOMETRY)).map_err(|e| e.to_string())?;
+    let share = |(dx, dy, dth): (f64, f64, f64), f: f64| SimPose::new(dx * f, dy * f, dth * f);
     let mut pose = SimPose::default();
+    let mut gaps = GapTracker::default();
+    let mut last_delta = None;
     let mut readings = log.readings.iter().peekable();
     let mut frames = Vec::with_capacity(times.len());
     for (k, &t_s) in times.iter().enumerate() {
         while let Some(r) = readings.next_if(|r| r.t_s <= t_s + 1e-9) {
-            let (dx, dy, dth) = r.delta;
-            pose = pose.compose(SimPose::new(dx, dy, dth));
+            let (_, fraction) = gaps.reading(r);
+            pose = pose.compose(share(r.delta, fraction));
+            last_delta = Some(r.delta);
+        }
+        // (A gap before the scan moves nothing here: the controller coasts across it.)
+        let _ = gaps.scan(t_s);
+        if let (Some(fraction), Some(delta)) = (gaps.lead(t_s), last_delta) {
+            pose = pose.compose(share(delta, fraction));
         }
         frames.push(OdometryFrame {
             sequence: k as u32 + 1,

@@ -431,18 +431,17 @@ impl Core {
         }
     }
 
-    /// Moves available bytes from the transport into the framer (bounded: a few reads, never
-    /// more than the framer has room for).
+    /// Moves available bytes from the transport into the framer (bounded: a few reads of at
+    /// most [`READ_CHUNK`] bytes, never more than the framer has room for). The transport
+    /// reads straight into the framer's free space: no staging buffer to clear or copy.
     fn fill<B: AsRef<[u8]> + AsMut<[u8]>, T: Transport>(
         &mut self,
         framer: &mut Framer<B>,
         io: &mut T,
         now: u64,
     ) -> Result<(), Event<'static>> {
-        let mut chunk = [0u8; READ_CHUNK];
         for _ in 0..READS_PER_POLL {
-            let free = framer.capacity().saturating_sub(framer.buffered());
-            if free == 0 {
+            if framer.buffered() >= framer.capacity() {
                 break;
             }
             match io.read_ready() {
@@ -451,13 +450,15 @@ impl Core {
                 Err(e) if no_data(e.kind()) => break,
                 Err(e) => return Err(self.fail(io, now, io_error(IoOp::Read, &e))),
             }
-            let n = free.min(READ_CHUNK);
-            let Some(dst) = chunk.get_mut(..n) else { break };
+            let spare = framer.spare_mut(READ_CHUNK);
+            let n = spare.len().min(READ_CHUNK);
+            // (Never read into nothing: a read of 0 bytes means the peer closed.)
+            let Some(dst) = spare.get_mut(..n).filter(|d| !d.is_empty()) else {
+                break;
+            };
             match io.read(dst) {
                 Ok(0) => return Err(self.fail(io, now, SessionError::ConnectionClosed)),
-                Ok(k) => {
-                    framer.push(dst.get(..k).unwrap_or(&[]));
-                }
+                Ok(k) => framer.commit(k),
                 Err(e) if no_data(e.kind()) => break,
                 Err(e) => return Err(self.fail(io, now, io_error(IoOp::Read, &e))),
             }
