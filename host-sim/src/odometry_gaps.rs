@@ -28,8 +28,12 @@ pub struct Gap {
 /// The part of the time line the odometry has covered so far.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct GapTracker {
-    /// End of the covered time, s; `None` before the first reading.
+    /// End of the covered time (by readings, leads to scans and coasts), s; `None` before
+    /// the first reading.
     covered_until_s: Option<f64>,
+    /// End of the latest reading's interval, s: a scan long after it is in a gap, however
+    /// far leads to earlier scans went.
+    reading_until_s: Option<f64>,
     /// The last reading's speed, yaw rate and interval.
     last: Option<(f64, f64, f64)>,
 }
@@ -63,6 +67,10 @@ impl GapTracker {
             self.covered_until_s
                 .map_or(reading.t_s, |u| u.max(reading.t_s)),
         );
+        self.reading_until_s = Some(
+            self.reading_until_s
+                .map_or(reading.t_s, |u| u.max(reading.t_s)),
+        );
         self.last = Some((reading.v_mps, reading.omega_radps, reading.dt_s));
         (gap, fraction)
     }
@@ -80,19 +88,23 @@ impl GapTracker {
     /// `tunnel-1km` the position along jumped by ±1 cm from scan to scan.
     pub fn lead(&mut self, t_s: f64) -> Option<f64> {
         let (until, (_, _, dt)) = (self.covered_until_s?, self.last?);
+        let since_reading_s = t_s - self.reading_until_s?;
         let ahead_s = t_s - until;
-        (ahead_s > 0.0 && dt > 0.0).then(|| {
+        let waiting = since_reading_s <= GAP_BEFORE_SCAN_DT * dt;
+        (ahead_s > 0.0 && dt > 0.0 && waiting).then(|| {
             self.covered_until_s = Some(t_s);
             ahead_s / dt
         })
     }
 
-    /// At a scan taken at `t_s`: the gap since the last reading when it is longer than
-    /// [`GAP_BEFORE_SCAN_DT`] intervals (the time up to the scan is then covered).
+    /// At a scan taken at `t_s`: when the last reading ended more than
+    /// [`GAP_BEFORE_SCAN_DT`] intervals before it, the gap — the time not covered yet, up to
+    /// the scan (which is then covered).
     pub fn scan(&mut self, t_s: f64) -> Option<Gap> {
         let (until, (v, w, dt)) = (self.covered_until_s?, self.last?);
+        let since_reading_s = t_s - self.reading_until_s?;
         let uncovered = t_s - until;
-        (uncovered > GAP_BEFORE_SCAN_DT * dt).then(|| {
+        (since_reading_s > GAP_BEFORE_SCAN_DT * dt && uncovered > 0.0).then(|| {
             self.covered_until_s = Some(t_s);
             Gap {
                 unobserved_s: uncovered,
@@ -152,6 +164,15 @@ mod tests {
         // A scan at a reading's time needs no lead.
         assert_eq!(g.lead(1.01), None);
         assert_eq!(g.reading(&reading(1.02)), (None, 1.0));
+        // The readings stop: leads go on for the normal wait only, then the scans coast
+        // from where the last lead ended (the dropout is not taken for steady motion).
+        assert_eq!(g.scan(1.033), None);
+        assert!(g.lead(1.033).is_some());
+        let gap = g.scan(1.047).unwrap();
+        assert!((gap.unobserved_s - 0.014).abs() < 1e-9, "{gap:?}");
+        assert_eq!(g.lead(1.047), None);
+        let gap = g.scan(1.06).unwrap();
+        assert!((gap.unobserved_s - 0.013).abs() < 1e-9, "{gap:?}");
     }
 
     #[test]
