@@ -8,16 +8,23 @@
 //! hand at the previous scan; otherwise the controller predicts with constant velocity and
 //! its pose frames say so (`MotionSource::ConstantVelocity`).
 //!
-//! Timing: the latest frame received before the scan telegram is taken as the odometry at
-//! the scan. A vehicle computer must therefore send its pose as each scan is taken (as
-//! `host-sim hil` does, predicted to the scan's time as `host-sim replay` predicts): frames
-//! sent at their own rate would put each scan up to one frame period of motion (1.5 cm at
-//! 3 m/s and 200 Hz) from where the filter predicted it, and the next frame would add that
-//! motion again — the along-tunnel error host-sim's replay showed at 35 and 75 Hz scans with
-//! 100 Hz odometry before it predicted to the scan's time (top-level README). Extrapolating
-//! the last frame to the telegram is not done yet. On real silicon the port must not lose
-//! bytes while a scan is processed (≈ 9 ms at 168 MHz, ≈ 100 bytes at 115200 baud):
-//! receive by DMA or interrupt into a ring buffer; under QEMU the UART holds the line.
+//! Timing: the odometry at a scan is the latest frame received before the scan telegram.
+//! A vehicle computer that sends one frame per scan, as the scan is taken (as `host-sim
+//! hil` does), gives it exactly. One that streams frames at its own rate (seen once two or
+//! more come between two scans) has the latest frame extrapolated to the telegram's
+//! arrival, at the rate between the last two frames (by their own time stamps), for the
+//! time since the latest arrived (board milliseconds; at most [`MAX_LEAD_PERIODS`] frame
+//! periods). Taken as it is, each scan would sit up to one frame period of motion (3 cm at
+//! 3 m/s and 100 Hz) from where the filter predicted it, and the next frame would add that
+//! motion again: the along-tunnel error `host-sim replay` showed at 35 and 75 Hz scans with
+//! 100 Hz odometry before it predicted to the scan's time (top-level README). The telegram
+//! arrives a few milliseconds after its scan, about the same for every scan, so the delay
+//! cancels in the motion between two scans. A frame that arrived while a scan was
+//! processed is stamped when it is read, up to that processing late.
+//!
+//! On real silicon the port must not lose bytes while a scan is processed (≈ 9 ms at
+//! 168 MHz, ≈ 100 bytes at 115200 baud): receive by DMA or interrupt into a ring buffer;
+//! under QEMU the UART holds the line.
 
 use controller_wire::{Assembled, FrameAssembler, OdometryFrame, MAX_ODOMETRY_FRAME_BYTES};
 use embedded_io::{Read, ReadReady};
@@ -26,6 +33,11 @@ use loc_core::geometry::Pose2;
 
 /// A frame older than this at a scan is stale, milliseconds (10 frames missed at 50 Hz).
 pub const ODOMETRY_STALE_MS: u64 = 200;
+
+/// Streamed frames are extrapolated to a scan by at most this many of their own periods
+/// (the normal wait for the next frame, and some; a longer silence is not taken for steady
+/// motion).
+pub const MAX_LEAD_PERIODS: u64 = 2;
 
 /// Counts of what arrived on the odometry port.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, defmt::Format)]
@@ -42,8 +54,20 @@ pub struct OdometryCounts {
 #[derive(Debug)]
 pub struct OdometryInput {
     assembler: FrameAssembler<MAX_ODOMETRY_FRAME_BYTES>,
-    /// The latest frame and when it arrived (board milliseconds).
+    /// The latest frame and when it first arrived (board milliseconds).
     latest: Option<(OdometryFrame, u64)>,
+    /// When the latest frame, or a repeat of it, last arrived (board milliseconds): the
+    /// odometry is alive while the vehicle repeats its reading.
+    heard_ms: u64,
+    /// The frame before the latest (the rate a streamed frame is extrapolated at).
+    previous: Option<OdometryFrame>,
+    /// Frames received since the last scan asked for its increment (from the first scan
+    /// on).
+    frames_since_scan: u16,
+    /// Whether the vehicle streams odometry at its own rate rather than sending one frame
+    /// per scan: set for good once two or more frames came between two scans (a vehicle
+    /// streaming at the scan rate or slower is not told from one sending per scan).
+    streamed: bool,
     /// The frame the previous scan was predicted to.
     at_last_scan: Option<OdometryFrame>,
     /// The first frame received before the first scan: the reading where the start pose
@@ -72,6 +96,10 @@ impl OdometryInput {
         Self {
             assembler: FrameAssembler::new(),
             latest: None,
+            heard_ms: 0,
+            previous: None,
+            frames_since_scan: 0,
+            streamed: false,
             at_last_scan: None,
             start_reading: None,
             scanned: false,
@@ -103,6 +131,17 @@ impl OdometryInput {
             Assembled::Overlong => self.counts.malformed += 1,
             Assembled::Frame(bytes) => match OdometryFrame::decode(bytes) {
                 Ok(f) if f.is_finite() => {
+                    self.heard_ms = now_ms;
+                    let repeat = self
+                        .latest
+                        .is_some_and(|(l, _)| l.sequence == f.sequence && l.time_us == f.time_us);
+                    if repeat {
+                        // The same reading again (`host-sim hil` repeats it while the
+                        // controller works): no new motion, no sign of streaming, and it
+                        // keeps the time it first came.
+                        self.counts.frames += 1;
+                        return;
+                    }
                     if let Some((prev, _)) = self.latest {
                         let gap = f.sequence.wrapping_sub(prev.sequence).wrapping_sub(1);
                         // A restart of the sender (sequence going back) is no loss.
@@ -111,7 +150,13 @@ impl OdometryInput {
                         }
                     }
                     self.counts.frames += 1;
+                    self.previous = self.latest.map(|(p, _)| p);
                     self.latest = Some((f, now_ms));
+                    // (Frames before the first scan lead up to it from the start reading:
+                    // they say nothing of how the vehicle sends.)
+                    if self.scanned {
+                        self.frames_since_scan = self.frames_since_scan.saturating_add(1);
+                    }
                     if !self.scanned && self.start_reading.is_none() {
                         self.start_reading = Some(f);
                     }
@@ -140,19 +185,59 @@ impl OdometryInput {
             self.at_last_scan.or(self.start_reading)
         };
         self.scanned = true;
+        self.streamed |= self.frames_since_scan >= 2;
+        self.frames_since_scan = 0;
+        let streamed = self.streamed;
         let used = self.at_last_scan.map(|f| f.sequence);
         let fresh = self
             .latest
-            .filter(|(f, at)| {
-                now_ms.saturating_sub(*at) <= ODOMETRY_STALE_MS && Some(f.sequence) != used
+            .filter(|(f, _)| {
+                now_ms.saturating_sub(self.heard_ms) <= ODOMETRY_STALE_MS
+                    && Some(f.sequence) != used
             })
-            .map(|(f, _)| f);
+            .map(|(f, at)| {
+                if streamed {
+                    self.extrapolated(f, now_ms.saturating_sub(at))
+                } else {
+                    f
+                }
+            });
         self.at_last_scan = fresh;
         let (reference, fresh) = (reference?, fresh?);
         // The start reading is all that came: no motion measured yet (the next scan's is
         // taken from it).
         (reference.sequence != fresh.sequence)
             .then(|| OdometryIncrement::between(&pose(&reference), &pose(&fresh)))
+    }
+
+    /// `latest`, received `age_ms` ago, carried on for that time at the rate between the
+    /// frame before it and it (by their time stamps; at most [`MAX_LEAD_PERIODS`] of their
+    /// period; as it is without a usable frame before it). Keeps its sequence number: it is
+    /// still that frame's reading, moved to the scan.
+    fn extrapolated(&self, latest: OdometryFrame, age_ms: u64) -> OdometryFrame {
+        let Some(previous) = self.previous else {
+            return latest;
+        };
+        let period_us = latest.time_us.saturating_sub(previous.time_us);
+        if period_us == 0 || latest.sequence == previous.sequence {
+            return latest;
+        }
+        let lead_us = (age_ms * 1000).min(MAX_LEAD_PERIODS * period_us);
+        let fraction = lead_us as f32 / period_us as f32;
+        let step = pose(&previous).between(&pose(&latest));
+        let lead = Pose2::new(
+            step.x_m * fraction,
+            step.y_m * fraction,
+            step.theta_rad * fraction,
+        );
+        let at = pose(&latest).compose(&lead);
+        OdometryFrame {
+            time_us: latest.time_us + lead_us,
+            x_m: at.x_m,
+            y_m: at.y_m,
+            theta_rad: at.theta_rad,
+            ..latest
+        }
     }
 
     /// The reading the last scan was predicted to (`None`: it had no fresh odometry).

@@ -64,6 +64,14 @@ pub fn run_all(runner: &mut TestRunner, board: &mut SelectedBoard, memory: Memor
         first_scan_is_predicted_from_the_first_frame,
     );
     runner.run(
+        "streamed_odometry_is_carried_to_each_scans_time",
+        streamed_odometry_is_carried_to_each_scan,
+    );
+    runner.run(
+        "a_repeated_frame_keeps_odometry_fresh_and_adds_no_motion",
+        repeated_frame_is_no_new_reading,
+    );
+    runner.run(
         "an_outage_is_bridged_by_odometry_and_a_restarted_sender_is_not",
         outage_is_bridged_by_odometry,
     );
@@ -368,6 +376,97 @@ fn first_scan_is_predicted_from_the_first_frame() -> TestResult {
     check(
         input.increment_for_scan(300).is_none(),
         "a scan without fresh odometry took an increment",
+    )
+}
+
+/// A vehicle that streams odometry at 100 Hz while the scanner runs at 75 Hz: each scan's
+/// increment is the motion between the scans' own times (to the board's millisecond), not
+/// between the frames before them — those are 10 or 20 ms apart where the scans are 13 or
+/// 14 ms apart, a 3 m/s drive moved 3 to 6 mm off at every scan, given back at the next.
+fn streamed_odometry_is_carried_to_each_scan() -> TestResult {
+    const SPEED_M_PER_MS: f32 = 0.003;
+    let mut input = OdometryInput::new();
+    let mut last_scan_ms = 0u64;
+    let mut scans = 0u32;
+    let mut worst_m = 0.0f32;
+    for now_ms in 0..=400u64 {
+        if now_ms % 10 == 0 {
+            let seq = (now_ms / 10) as u32;
+            let frame = odometry_frame(seq, 10_000, SPEED_M_PER_MS * now_ms as f32, 0.0);
+            push_frame(&mut input, frame, now_ms)?;
+        }
+        // 75 Hz: scan k at ⌊40 k / 3⌋ ms.
+        if now_ms != u64::from(scans) * 40 / 3 {
+            continue;
+        }
+        scans += 1;
+        let inc = input.increment_for_scan(now_ms);
+        // From the fifth scan on: the first has only the start reading; the fourth ends
+        // the first interval with two frames (26–40 ms), which shows that the vehicle
+        // streams, and its increment still starts at the third's frame as it came.
+        if scans >= 5 {
+            let inc = inc.ok_or("a streamed frame gave no increment")?;
+            let want_m = SPEED_M_PER_MS * (now_ms - last_scan_ms) as f32;
+            worst_m = loc_core::math::max(worst_m, loc_core::math::abs(inc.dx_m - want_m));
+        }
+        last_scan_ms = now_ms;
+    }
+    defmt::info!(
+        "  streamed odometry: {} scans, worst increment error {} m",
+        scans,
+        worst_m
+    );
+    check(scans > 25, "too few scans")?;
+    check(
+        worst_m < 1e-4,
+        "a scan's increment is not the motion between the scans' times",
+    )
+}
+
+/// One frame per scan, repeated every 20 ms while the controller works (as `host-sim hil`
+/// sends them): the repeats keep the reading fresh long after it first came, and they are
+/// neither new motion nor a sign of streaming — each scan's increment is the frames'
+/// difference as sent, not carried on by the time since the frame came.
+fn repeated_frame_is_no_new_reading() -> TestResult {
+    let mut input = OdometryInput::new();
+    let frame = |k: u32| odometry_frame(k, 300_000, 0.9 * k as f32, 0.0);
+    for k in 0..8u32 {
+        let sent_ms = u64::from(k) * 300;
+        push_frame(&mut input, frame(k), sent_ms)?;
+        // Even frames: the scan comes 5 ms after its frame, before any repeat (taken for
+        // streaming, the frame would be carried on by 5 ms: 15 mm). Odd ones: 270 ms after
+        // it, 10 ms after its last repeat (stale by its first arrival alone).
+        let scan_ms = if k % 2 == 0 {
+            sent_ms + 5
+        } else {
+            sent_ms + 270
+        };
+        for repeat in 1..14u64 {
+            let at_ms = sent_ms + 20 * repeat;
+            if at_ms < scan_ms {
+                push_frame(&mut input, frame(k), at_ms)?;
+            }
+        }
+        let inc = input.increment_for_scan(scan_ms);
+        for repeat in 1..14u64 {
+            let at_ms = sent_ms + 20 * repeat;
+            if at_ms > scan_ms {
+                push_frame(&mut input, frame(k), at_ms)?;
+            }
+        }
+        match (k, inc) {
+            (0, None) => {}
+            (0, Some(_)) => return Err("the start reading alone gave an increment"),
+            (_, None) => return Err("a repeated frame was taken as stale"),
+            (_, Some(inc)) => check(
+                loc_core::math::abs(inc.dx_m - 0.9) < 1e-5,
+                "a repeated frame was taken for new motion or for streaming",
+            )?,
+        }
+    }
+    check(
+        input.counts().lost == 0,
+        "repeats were counted as lost frames",
     )
 }
 
