@@ -20,7 +20,7 @@
 //! 100 Hz odometry before it predicted to the scan's time (top-level README). The telegram
 //! arrives a few milliseconds after its scan, about the same for every scan, so the delay
 //! cancels in the motion between two scans. A frame that arrived while a scan was
-//! processed is stamped when it is read, up to that processing late.
+//! processed is stamped when it is read, late by up to the processing time.
 //!
 //! On real silicon the port must not lose bytes while a scan is processed (≈ 9 ms at
 //! 168 MHz, ≈ 100 bytes at 115200 baud): receive by DMA or interrupt into a ring buffer;
@@ -219,10 +219,15 @@ impl OdometryInput {
             return latest;
         };
         let period_us = latest.time_us.saturating_sub(previous.time_us);
-        if period_us == 0 || latest.sequence == previous.sequence {
+        // Only after a frame from the same run of the sender (a restarted one starts its
+        // sequence and its pose again: their difference is no motion).
+        let after = latest.sequence.wrapping_sub(previous.sequence);
+        if period_us == 0 || after == 0 || after >= u32::MAX / 2 {
             return latest;
         }
-        let lead_us = (age_ms * 1000).min(MAX_LEAD_PERIODS * period_us);
+        let lead_us = age_ms
+            .saturating_mul(1000)
+            .min(period_us.saturating_mul(MAX_LEAD_PERIODS));
         let fraction = lead_us as f32 / period_us as f32;
         let step = pose(&previous).between(&pose(&latest));
         let lead = Pose2::new(
@@ -232,7 +237,7 @@ impl OdometryInput {
         );
         let at = pose(&latest).compose(&lead);
         OdometryFrame {
-            time_us: latest.time_us + lead_us,
+            time_us: latest.time_us.saturating_add(lead_us),
             x_m: at.x_m,
             y_m: at.y_m,
             theta_rad: at.theta_rad,
