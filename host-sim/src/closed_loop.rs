@@ -16,6 +16,7 @@ use loc_core::rng::Pcg32;
 
 use crate::lidar::{EchoCounts, LidarScan, Lms511};
 use crate::metrics::{self, Metrics, Sample};
+use crate::odometry_gaps::dead_reckoned_at;
 use crate::scenario::Scenario;
 use crate::status::EstimatorStatus;
 use crate::traffic::Traffic;
@@ -66,6 +67,8 @@ pub trait Estimator {
 pub struct OdometryOnly {
     pose: SimPose,
     sigma: (f64, f64, f64),
+    /// The latest reading (the pose is carried on from it to each scan).
+    last: Option<OdometrySample>,
 }
 
 impl Estimator for OdometryOnly {
@@ -76,6 +79,7 @@ impl Estimator for OdometryOnly {
     fn reset(&mut self, pose: SimPose, sigma_m: f64, sigma_rad: f64) {
         self.pose = pose;
         self.sigma = (sigma_m, sigma_m, sigma_rad);
+        self.last = None;
     }
 
     fn odometry(&mut self, s: &OdometrySample) {
@@ -86,11 +90,12 @@ impl Estimator for OdometryOnly {
             y_m: self.pose.y_m + sn * dx + cs * dy,
             theta_rad: self.pose.theta_rad + dth,
         };
+        self.last = Some(*s);
     }
 
-    fn scan(&mut self, _scan: &LidarScan) -> EstimatorOutput {
+    fn scan(&mut self, scan: &LidarScan) -> EstimatorOutput {
         EstimatorOutput {
-            pose: self.pose,
+            pose: dead_reckoned_at(self.pose, self.last.as_ref(), scan.t_s),
             sigma: self.sigma,
             status: EstimatorStatus::Odometry,
             protection: None,
@@ -330,6 +335,8 @@ pub fn run(
     let mut distance = 0.0f64;
     let mut chainage_hint = scenario.drive.start_m;
     let mut next_scan_index = 1u64;
+    // The latest odometry reading (the dead reckoning is carried on from it to each scan).
+    let mut last_reading: Option<OdometrySample> = None;
     let mut raycast_time = 0.0f64;
     let mut finished_at: Option<u64> = None;
     let mut last_progress = -1.0f64;
@@ -382,6 +389,7 @@ pub fn run(
             let reading = odometry.read(mean, yaw_sum / dt, t, dt);
             yaw_sum = 0.0;
             estimator.odometry(&reading);
+            last_reading = Some(reading);
             if options.keep_scans {
                 odo_log.push(reading);
             }
@@ -425,7 +433,7 @@ pub fn run(
                 chainage_m: proj.s_m,
                 truth: after,
                 estimate: out.pose,
-                odometry: odometry.pose(),
+                odometry: dead_reckoned_at(odometry.pose(), last_reading.as_ref(), t),
                 sigma: out.sigma,
                 protection: out.protection,
                 update_us,

@@ -5,6 +5,7 @@
 //! the time, instead of keeping a covariance the pose no longer deserves.
 
 use crate::vehicle::odometry::OdometrySample;
+use crate::vehicle::SimPose;
 
 /// Uncovered time before a reading longer than this fraction of its `dt_s` is a gap (shorter
 /// ones are clock jitter between logger and wheel counter).
@@ -13,6 +14,20 @@ pub const GAP_BEFORE_READING_DT: f64 = 0.5;
 /// At a scan, time since the last reading longer than this many `dt_s` is a gap (up to one
 /// interval is the normal wait for the next reading).
 pub const GAP_BEFORE_SCAN_DT: f64 = 1.5;
+
+/// A dead-reckoned `pose` (odometry alone, up to the end of `last`, the latest reading)
+/// carried on to a scan taken at `t_s` at that reading's speed and yaw rate, while the next
+/// reading is normally awaited (up to [`GAP_BEFORE_SCAN_DT`] intervals after it); as it is
+/// otherwise. What the odometry says of the vehicle at the scan's own time — the keyframes
+/// of a survey and the odometry-alone baseline are taken at the scans.
+pub fn dead_reckoned_at(pose: SimPose, last: Option<&OdometrySample>, t_s: f64) -> SimPose {
+    match last {
+        Some(r) if t_s > r.t_s && t_s - r.t_s <= GAP_BEFORE_SCAN_DT * r.dt_s => {
+            pose.integrate(r.v_mps, 0.0, r.omega_radps, t_s - r.t_s)
+        }
+        _ => pose,
+    }
+}
 
 /// A gap to coast across, at the speed of the reading before it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -173,6 +188,18 @@ mod tests {
         assert_eq!(g.lead(1.047), None);
         let gap = g.scan(1.06).unwrap();
         assert!((gap.unobserved_s - 0.013).abs() < 1e-9, "{gap:?}");
+    }
+
+    #[test]
+    fn dead_reckoning_is_carried_to_the_scan_within_the_wait_only() {
+        let r = reading(1.0); // 2 m/s, 0.1 rad/s
+        let p = SimPose::new(5.0, 0.0, 0.0);
+        let at = dead_reckoned_at(p, Some(&r), 1.004);
+        assert!((at.x_m - 5.008).abs() < 1e-6 && (at.theta_rad - 0.0004).abs() < 1e-12);
+        // No reading yet, a scan before the reading's end, a scan in a gap: as it is.
+        assert_eq!(dead_reckoned_at(p, None, 1.004), p);
+        assert_eq!(dead_reckoned_at(p, Some(&r), 0.999), p);
+        assert_eq!(dead_reckoned_at(p, Some(&r), 1.02), p);
     }
 
     #[test]

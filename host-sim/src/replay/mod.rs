@@ -609,6 +609,7 @@ fn drive(
     let mut truth_cursor = 0usize;
     est.reset(initial.pose, initial.sigma_xy_m, initial.sigma_theta_rad);
     let mut odo_pose = start;
+    let mut last_reading = None;
     let mut next = 0usize;
     let mut steps = Vec::new();
     let mut kept = Vec::new();
@@ -617,6 +618,7 @@ fn drive(
             est.odometry(r);
             // The simulator's odometry integrates its readings the same way.
             odo_pose = odo_pose.integrate(r.v_mps, 0.0, r.omega_radps, r.dt_s);
+            last_reading = Some(r);
             next += 1;
         }
         let t0 = Instant::now();
@@ -630,7 +632,7 @@ fn drive(
             sigma: out.sigma,
             status: out.status,
             protection: out.protection,
-            odometry: odo_pose,
+            odometry: crate::odometry_gaps::dead_reckoned_at(odo_pose, last_reading, scan.t_s),
             update_us,
             bound: bound.as_mut().and_then(|(b, rows)| {
                 truth::pose_at(rows, scan.t_s, &mut truth_cursor).and_then(|p| b.at(&scan, p))
