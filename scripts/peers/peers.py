@@ -5,7 +5,7 @@ that `host-sim replay DIR --estimates FILE --json` scores with the project's own
 
 Each scan: predict from the previous estimate with the recorded odometry increments (the
 same `dx_m, dy_m, dtheta_rad` rows the core's replay feeds its EKF, composed in the vehicle
-frame), register the scan (LMS511 DIST1 through the exact beam step `sick-dump` reports,
+frame, up to the scan's own time as the replay predicts), register the scan (LMS511 DIST1 through the exact beam step `sick-dump` reports,
 mounted as the recording's scenario says) against the stored map (walls and landmark
 polylines of `host-sim export-map --format json`, sampled densely), and take the registered
 pose as the estimate. No filter: these are registration methods.
@@ -65,18 +65,39 @@ def read_scans(jsonl_path, times_path):
     return scans
 
 
-def odometry_between(odo, t0, t1):
-    """The composed increment (dx, dy, dth) of odometry rows with t0 < t_s <= t1, vehicle
-    frame at t0."""
-    lo = np.searchsorted(odo[:, 0], t0, side="right")
-    hi = np.searchsorted(odo[:, 0], t1, side="right")
-    x = y = th = 0.0
-    for dx, dy, dth in odo[lo:hi, 1:4]:
-        c, s = math.cos(th), math.sin(th)
-        x += c * dx - s * dy
-        y += s * dx + c * dy
-        th += dth
-    return x, y, th
+class Odometry:
+    """The recorded odometry (`odometry.csv` rows `t_s, dt_s, dx_m, dy_m, dtheta_rad`) as
+    the vehicle's odometry pose at any time, the way the core's replay predicts each scan
+    (host-sim's `GapTracker::lead`): every row up to the time, then on at the last row's rate
+    up to it while the next row is normally awaited (1.5 of its intervals). Scans between
+    rows (35 or 75 Hz against 100 Hz odometry) are predicted to their own time, not to the
+    row before them; at 25 and 50 Hz every scan falls on a row."""
+
+    def __init__(self, rows):
+        self.t = rows[:, 0]
+        self.dt = rows[:, 1]
+        self.inc = rows[:, 2:5]
+        # Pose after each row (vehicle frame at the log's start); index 0: before any.
+        self.cum = [(0.0, 0.0, 0.0)]
+        for d in self.inc:
+            self.cum.append(compose(self.cum[-1], d))
+
+    def at(self, t):
+        k = int(np.searchsorted(self.t, t, side="right"))  # rows with t_s <= t
+        pose = self.cum[k]
+        if k > 0:
+            lead = t - self.t[k - 1]
+            dt = self.dt[k - 1]
+            if dt > 0 and 0 < lead <= 1.5 * dt:
+                pose = compose(pose, tuple(self.inc[k - 1] * (lead / dt)))
+        return pose
+
+    def between(self, t0, t1):
+        """The motion from t0 to t1, (dx, dy, dth) in the vehicle frame at t0."""
+        a, b = self.at(t0), self.at(t1)
+        c, s = math.cos(a[2]), math.sin(a[2])
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        return (c * dx + s * dy, -s * dx + c * dy, b[2] - a[2])
 
 
 def compose(p, d):
@@ -208,7 +229,11 @@ def main():
     max_range = cfg.get("max_range_m", lid.get("max_range_m", 80.0))
 
     scans = read_scans(a.scans, f"{a.recording}/scanner.colab.times.csv")
-    odo = read_numeric(f"{a.recording}/odometry.csv", ["t_s", "dx_m", "dy_m", "dtheta_rad"])
+    odo = Odometry(
+        read_numeric(
+            f"{a.recording}/odometry.csv", ["t_s", "dt_s", "dx_m", "dy_m", "dtheta_rad"]
+        )
+    )
     if a.start == "truth":
         t0 = read_numeric(f"{a.recording}/ground_truth.csv", ["x_m", "y_m", "theta_rad"])[0]
     else:
@@ -221,7 +246,7 @@ def main():
     rows = []
     started = time.perf_counter()
     for k, (t, r, ang) in enumerate(scans):
-        pose = compose(pose, odometry_between(odo, t_prev, t))
+        pose = compose(pose, odo.between(t_prev, t))
         t_prev = t
         keep = r <= max_range
         xs, ys = r[keep] * np.cos(ang[keep]), r[keep] * np.sin(ang[keep])
