@@ -7,9 +7,9 @@ Each scan: predict from the previous estimate with the recorded odometry increme
 same `dx_m, dy_m, dtheta_rad` rows the core's replay feeds its EKF, composed in the vehicle
 frame, up to the scan's own time as the replay predicts), register the scan (LMS511 DIST1
 through the exact beam step `sick-dump` reports, mounted as the recording's scenario says)
-against the stored map (walls and landmark
-polylines of `host-sim export-map --format json`, sampled densely), and take the registered
-pose as the estimate. No filter: these are registration methods.
+against the stored map (walls and landmark polylines of `host-sim export-map --format
+json`, sampled densely), and take the registered pose as the estimate. No filter: these are
+registration methods.
 
 Inputs are the files the comparison script prepares; see compare.sh.
 """
