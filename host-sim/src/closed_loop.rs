@@ -103,6 +103,29 @@ impl Estimator for OdometryOnly {
     }
 }
 
+/// The vehicle's pose `lag_s` seconds before the newest of `recent` (one pose per
+/// [`VEHICLE_DT_S`], newest last), interpolated between steps; the oldest held beyond them.
+fn pose_before(recent: &std::collections::VecDeque<SimPose>, lag_s: f64) -> (f64, f64, f64) {
+    let Some(newest) = recent.len().checked_sub(1) else {
+        return (0.0, 0.0, 0.0);
+    };
+    let steps = (lag_s / VEHICLE_DT_S).max(0.0);
+    let k = (steps.floor() as usize).min(newest);
+    let u = (steps - k as f64).clamp(0.0, 1.0);
+    let a = recent[newest - k];
+    let b = if k < newest {
+        recent[newest - k - 1]
+    } else {
+        a
+    };
+    let lerp = |p: f64, q: f64| p + (q - p) * u;
+    (
+        lerp(a.x_m, b.x_m),
+        lerp(a.y_m, b.y_m),
+        lerp(a.theta_rad, b.theta_rad),
+    )
+}
+
 /// A summary of the simulated world, for reports.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct WorldSummary {
@@ -337,6 +360,15 @@ pub fn run(
     let mut next_scan_index = 1u64;
     // The latest odometry reading (the dead reckoning is carried on from it to each scan).
     let mut last_reading: Option<OdometrySample> = None;
+    // The vehicle's recent poses, one per step, newest last: where it was when the
+    // scanner's mirror passed each beam (`lidar.sweep`).
+    let sweep_steps = if scenario.lidar.sweep {
+        (scan_period_s / VEHICLE_DT_S).ceil() as usize + 2
+    } else {
+        1
+    };
+    let mut recent: std::collections::VecDeque<SimPose> =
+        std::collections::VecDeque::with_capacity(sweep_steps + 1);
     let mut raycast_time = 0.0f64;
     let mut finished_at: Option<u64> = None;
     let mut last_progress = -1.0f64;
@@ -374,6 +406,10 @@ pub fn run(
                 chainage_hint += k.jump_m;
             }
         }
+        if recent.len() == sweep_steps {
+            recent.pop_front();
+        }
+        recent.push_back(after);
         let w = vehicle.wheel_speeds();
         wheel_sum.left_mps += w.left_mps;
         wheel_sum.right_mps += w.right_mps;
@@ -415,10 +451,10 @@ pub fn run(
             // CPU time of this thread: other processes on the machine do not count.
             let r0 = ThreadTime::now();
             traffic.obstacles_at(line, t, &mut obstacles);
-            let scan = lidar.scan_among(
+            let scan = lidar.scan_swept(
                 world.grid(),
                 &obstacles,
-                (after.x_m, after.y_m, after.theta_rad),
+                |lag_s| pose_before(&recent, lag_s),
                 t,
             );
             raycast_time += r0.elapsed().as_secs_f64();
@@ -516,6 +552,18 @@ mod tests {
             log.status_count(|s| *s == EstimatorStatus::Odometry),
             m.scans
         );
+    }
+
+    #[test]
+    fn the_pose_before_the_scan_is_interpolated_between_steps() {
+        let recent: std::collections::VecDeque<SimPose> = (0..3)
+            .map(|k| SimPose::new(f64::from(k), 0.0, 0.01 * f64::from(k)))
+            .collect();
+        assert_eq!(pose_before(&recent, 0.0), (2.0, 0.0, 0.02));
+        let (x, _, th) = pose_before(&recent, 1.5 * VEHICLE_DT_S);
+        assert!((x - 0.5).abs() < 1e-9 && (th - 0.005).abs() < 1e-12);
+        // Past the oldest kept pose: held there.
+        assert_eq!(pose_before(&recent, 1.0), (0.0, 0.0, 0.0));
     }
 
     #[test]

@@ -144,6 +144,13 @@ pub struct LidarSpec {
     /// Dust and spray the beams pass through (scenario `[lidar.dust]`; default none).
     #[serde(skip_serializing_if = "DustSpec::is_clear")]
     pub dust: DustSpec,
+    /// Whether the mirror's sweep is modelled (scenario `lidar.sweep`; default off: every
+    /// beam from the pose at the scan's time). On, beam `i` of `n` is taken
+    /// `(n − 1 − i)` beam times before the scan's time, from where the vehicle was then:
+    /// the LMS511's mirror turns once per scan period, so its 190° take 21 ms at 25 Hz
+    /// (6 cm of travel at 3 m/s) and the scan's time is its last beam's.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub sweep: bool,
 }
 
 impl Default for LidarSpec {
@@ -157,7 +164,15 @@ impl Default for LidarSpec {
             mount_y_m: 0.0,
             mount_yaw_rad: -std::f64::consts::FRAC_PI_2,
             dust: DustSpec::default(),
+            sweep: false,
         }
+    }
+}
+
+impl LidarSpec {
+    /// Time between two beams of a scan, seconds: the mirror turns 360° per scan period.
+    pub fn beam_time_s(&self) -> f64 {
+        self.rate.step_deg() / 360.0 / self.rate.frequency_hz()
     }
 }
 
@@ -274,7 +289,8 @@ impl Lms511 {
     }
 
     /// Scans the true geometry with `obstacles` (people, vehicles) in it from a vehicle at
-    /// world pose `(x_m, y_m, theta_rad)`, through the dust of the spec.
+    /// world pose `(x_m, y_m, theta_rad)`, through the dust of the spec (every beam from
+    /// that pose: see [`Lms511::scan_swept`] for the sweep).
     pub fn scan_among(
         &mut self,
         grid: &SegmentGrid,
@@ -282,20 +298,44 @@ impl Lms511 {
         vehicle: (f64, f64, f64),
         t_s: f64,
     ) -> LidarScan {
-        let (vx, vy, vth) = vehicle;
-        let (s, c) = vth.sin_cos();
-        let origin = (
-            vx + c * self.spec.mount_x_m - s * self.spec.mount_y_m,
-            vy + s * self.spec.mount_x_m + c * self.spec.mount_y_m,
+        self.scan_swept(grid, obstacles, |_| vehicle, t_s)
+    }
+
+    /// As [`Lms511::scan_among`], with the vehicle's world pose `vehicle_before(lag_s)` the
+    /// given seconds before the scan's time `t_s`: with [`LidarSpec::sweep`] each beam is
+    /// taken from where the vehicle was when the mirror passed it; otherwise every beam from
+    /// `vehicle_before(0.0)`.
+    pub fn scan_swept(
+        &mut self,
+        grid: &SegmentGrid,
+        obstacles: &[Obstacle],
+        vehicle_before: impl Fn(f64) -> (f64, f64, f64),
+        t_s: f64,
+    ) -> LidarScan {
+        let (mx, my, myaw) = (
+            self.spec.mount_x_m,
+            self.spec.mount_y_m,
+            self.spec.mount_yaw_rad,
         );
-        let heading = vth + self.spec.mount_yaw_rad;
+        let sensor = move |(vx, vy, vth): (f64, f64, f64)| {
+            let (s, c) = vth.sin_cos();
+            ((vx + c * mx - s * my, vy + s * mx + c * my), vth + myaw)
+        };
+        let at_scan = sensor(vehicle_before(0.0));
+        let beam_time_s = self.spec.beam_time_s();
         let layout = self.spec.rate.layout();
         let beams = usize::from(layout.beams);
         if let Some((field, _)) = &mut self.dust {
             field.advance(t_s, beams, self.spec.rate.step_deg());
         }
+        let sweep = self.spec.sweep;
         let echoes_m: Vec<BeamEchoes> = (0..beams)
             .map(|i| {
+                let (origin, heading) = if sweep {
+                    sensor(vehicle_before((beams - 1 - i) as f64 * beam_time_s))
+                } else {
+                    at_scan
+                };
                 let angle = heading + layout.beam_angle_rad(i);
                 self.beam(grid, obstacles, origin, angle, i)
             })
@@ -419,6 +459,38 @@ mod tests {
             walls.push(wall((length_m, -2.0), (length_m, 2.0), Surface::LeftWall));
         }
         SegmentGrid::new(walls, 1.0)
+    }
+
+    #[test]
+    fn the_sweep_takes_each_beam_from_where_the_vehicle_was() {
+        // Driving at 3 m/s towards an end wall 10 m ahead: the beam straight ahead (570 of
+        // 1141) is taken 570 beam times (10.6 ms at 25 Hz) before the scan's time, 31.7 mm
+        // farther back; without the sweep every beam is from the pose at the scan's time.
+        let grid = corridor(10.0, true);
+        let spec = LidarSpec {
+            range_noise_m: 0.0,
+            sweep: true,
+            ..LidarSpec::default()
+        };
+        assert!((spec.beam_time_s() * 1140.0 - 0.02111).abs() < 1e-5);
+        let driving = |lag_s: f64| (-3.0 * lag_s, 0.0, 0.0);
+        let swept = Lms511::new(spec, 1).scan_swept(&grid, &[], driving, 0.0);
+        let still = LidarSpec {
+            sweep: false,
+            ..spec
+        };
+        let at_once = Lms511::new(still, 1).scan_swept(&grid, &[], driving, 0.0);
+        let ahead_mm = |s: &LidarScan| f64::from(s.dist1()[570]) * f64::from(s.scale_factor);
+        assert!((ahead_mm(&at_once) - 9000.0).abs() <= 1.0);
+        let lag_mm = 3.0 * 570.0 * spec.beam_time_s() * 1000.0;
+        assert!(
+            (ahead_mm(&swept) - 9000.0 - lag_mm).abs() <= 1.0,
+            "{} against {}",
+            ahead_mm(&swept),
+            9000.0 + lag_mm
+        );
+        // The last beam is the scan's time: the same either way.
+        assert_eq!(swept.dist1()[1140], at_once.dist1()[1140]);
     }
 
     #[test]
