@@ -15,6 +15,13 @@ pub const GAP_BEFORE_READING_DT: f64 = 0.5;
 /// interval is the normal wait for the next reading).
 pub const GAP_BEFORE_SCAN_DT: f64 = 1.5;
 
+/// Whether a scan `since_s` seconds after the end of a reading of interval `dt_s` is within
+/// the normal wait for the next reading (up to [`GAP_BEFORE_SCAN_DT`] intervals), rather than
+/// in a gap.
+fn awaited(since_s: f64, dt_s: f64) -> bool {
+    since_s <= GAP_BEFORE_SCAN_DT * dt_s
+}
+
 /// A dead-reckoned `pose` (odometry alone, up to the end of `last`, the latest reading)
 /// carried on to a scan taken at `t_s` at that reading's speed and yaw rate, while the next
 /// reading is normally awaited (up to [`GAP_BEFORE_SCAN_DT`] intervals after it); as it is
@@ -22,7 +29,7 @@ pub const GAP_BEFORE_SCAN_DT: f64 = 1.5;
 /// of a survey and the odometry-alone baseline are taken at the scans.
 pub fn dead_reckoned_at(pose: SimPose, last: Option<&OdometrySample>, t_s: f64) -> SimPose {
     match last {
-        Some(r) if t_s > r.t_s && t_s - r.t_s <= GAP_BEFORE_SCAN_DT * r.dt_s => {
+        Some(r) if t_s > r.t_s && awaited(t_s - r.t_s, r.dt_s) => {
             pose.integrate(r.v_mps, 0.0, r.omega_radps, t_s - r.t_s)
         }
         _ => pose,
@@ -105,8 +112,7 @@ impl GapTracker {
         let (until, (_, _, dt)) = (self.covered_until_s?, self.last?);
         let since_reading_s = t_s - self.reading_until_s?;
         let ahead_s = t_s - until;
-        let waiting = since_reading_s <= GAP_BEFORE_SCAN_DT * dt;
-        (ahead_s > 0.0 && dt > 0.0 && waiting).then(|| {
+        (ahead_s > 0.0 && dt > 0.0 && awaited(since_reading_s, dt)).then(|| {
             self.covered_until_s = Some(t_s);
             ahead_s / dt
         })

@@ -137,22 +137,12 @@ impl<B: AsRef<[u8]> + AsMut<[u8]>> Framer<B> {
     /// than `bytes.len()` only when the buffer is full: drain with `next_frame`, then push the
     /// rest. A push after [`Framer::finish`] re-opens the stream.
     pub fn push(&mut self, bytes: &[u8]) -> usize {
-        self.finished = false;
-        let cap = self.capacity();
-        if cap - self.end < bytes.len() && self.start > 0 {
-            self.buf.as_mut().copy_within(self.start..self.end, 0);
-            self.end -= self.start;
-            self.start = 0;
-        }
-        let n = bytes.len().min(cap - self.end);
-        if let (Some(dst), Some(src)) = (
-            self.buf.as_mut().get_mut(self.end..self.end + n),
-            bytes.get(..n),
-        ) {
+        let spare = self.spare_mut(bytes.len());
+        let n = bytes.len().min(spare.len());
+        if let (Some(dst), Some(src)) = (spare.get_mut(..n), bytes.get(..n)) {
             dst.copy_from_slice(src);
         }
-        self.end += n;
-        self.stats.bytes_in += n as u64;
+        self.commit(n);
         n
     }
 
