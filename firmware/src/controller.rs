@@ -39,7 +39,7 @@ use loc_core::localizer::{
     StartPose, StartPoseError, Status,
 };
 use loc_core::map::{MapError, MapImage};
-use loc_core::scan::Scan;
+use loc_core::scan::{Scan, SweepMotion};
 use nalgebra::{Matrix3, Vector3};
 use scan_input::{EchoSelection, ScanInputError};
 use static_cell::ConstStaticCell;
@@ -249,6 +249,14 @@ impl<'m> Controller<'m> {
         };
     }
 
+    /// The vehicle's speed by its odometry (`rate`, from the last two frames), for the
+    /// sweep of the next scan when the localiser's own track does not reach back to an
+    /// earlier one (the first scan after a start or a reset): that scan is then carried over
+    /// the mirror's sweep too (21 ms at 25 Hz).
+    pub fn hint_sweep_speed(&mut self, rate: &SweepMotion) {
+        self.localizer.hint_sweep_speed(*rate);
+    }
+
     /// Turns `telegram`'s distance channels into the scan to localise on (scan-input: the
     /// telegram's own layout and scale, per beam the echo [`ECHO_SELECTION`] chooses).
     pub fn load_scan(&mut self, telegram: &ScanData<'_>) -> Result<(), ScanInputError> {
@@ -259,7 +267,9 @@ impl<'m> Controller<'m> {
     /// Localises on the loaded scan, reporting loc-core's stages to `observer`, and returns
     /// the pose frame to send (`sequence`: the telegram's scan counter).
     pub fn localise<O: StageObserver>(&mut self, sequence: u32, observer: &mut O) -> PoseFrame {
-        let status = self.localizer.update_scan_observed(&self.scan, observer);
+        let status = self
+            .localizer
+            .update_scan_observed(&mut self.scan, observer);
         let pose = self.localizer.pose().unwrap_or(Pose2::IDENTITY);
         if let Some(previous) = self.last_pose {
             self.motion = OdometryIncrement::between(&previous, &pose);
@@ -504,6 +514,9 @@ pub fn run<B: Board>(
         let mut increment = odometry.increment_for_scan(now_ms);
         if let Some(last) = resume.take() {
             increment = resume_after_reset(controller, &last, odometry.at_last_scan());
+        }
+        if let (Some(_), Some(rate)) = (increment, odometry.rate()) {
+            controller.hint_sweep_speed(&rate);
         }
         if had_odometry != Some(increment.is_some()) {
             had_odometry = Some(increment.is_some());

@@ -30,6 +30,7 @@ use controller_wire::{Assembled, FrameAssembler, OdometryFrame, MAX_ODOMETRY_FRA
 use embedded_io::{Read, ReadReady};
 use loc_core::filter::OdometryIncrement;
 use loc_core::geometry::Pose2;
+use loc_core::scan::SweepMotion;
 
 /// A frame older than this at a scan is stale, milliseconds (10 frames missed at 50 Hz).
 pub const ODOMETRY_STALE_MS: u64 = 200;
@@ -215,21 +216,13 @@ impl OdometryInput {
     /// period; as it is without a usable frame before it). Keeps its sequence number: it is
     /// still that frame's reading, moved to the scan.
     fn extrapolated(&self, latest: OdometryFrame, age_ms: u64) -> OdometryFrame {
-        let Some(previous) = self.previous else {
+        let Some((step, period_us)) = self.step_to(&latest) else {
             return latest;
         };
-        let period_us = latest.time_us.saturating_sub(previous.time_us);
-        // Only after a frame from the same run of the sender (a restarted one starts its
-        // sequence and its pose again: their difference is no motion).
-        let after = latest.sequence.wrapping_sub(previous.sequence);
-        if period_us == 0 || after == 0 || after >= u32::MAX / 2 {
-            return latest;
-        }
         let lead_us = age_ms
             .saturating_mul(1000)
             .min(period_us.saturating_mul(MAX_LEAD_PERIODS));
         let fraction = lead_us as f32 / period_us as f32;
-        let step = pose(&previous).between(&pose(&latest));
         let lead = Pose2::new(
             step.x_m * fraction,
             step.y_m * fraction,
@@ -243,6 +236,27 @@ impl OdometryInput {
             theta_rad: at.theta_rad,
             ..latest
         }
+    }
+
+    /// The motion from the frame before `latest` to it (odometry frame at the earlier one)
+    /// and the time between their stamps, µs: only for frames of the same run of the
+    /// sender (a restarted one starts its sequence and its pose again: their difference is
+    /// no motion) whose time moved on.
+    fn step_to(&self, latest: &OdometryFrame) -> Option<(Pose2, u64)> {
+        let previous = self.previous?;
+        let period_us = latest.time_us.saturating_sub(previous.time_us);
+        let after = latest.sequence.wrapping_sub(previous.sequence);
+        (period_us > 0 && after != 0 && after < u32::MAX / 2)
+            .then(|| (pose(&previous).between(&pose(latest)), period_us))
+    }
+
+    /// The vehicle's speed by its odometry: the motion between the last two frames over
+    /// the time between their stamps (vehicle frame), for the sweep of a scan the
+    /// localiser's own track does not reach yet ([`loc_core::localizer::Localizer::hint_sweep_speed`]).
+    pub fn rate(&self) -> Option<SweepMotion> {
+        let (latest, _) = self.latest?;
+        let (step, period_us) = self.step_to(&latest)?;
+        SweepMotion::from_motion(&step, period_us as f32 * 1e-6)
     }
 
     /// The reading the last scan was predicted to (`None`: it had no fresh odometry).

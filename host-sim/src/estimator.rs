@@ -84,6 +84,9 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
     // A wall's last metre is as rough as the rest (a wall end seen at grazing incidence
     // moves along with it).
     cfg.wall_end.wall_roughness_m = scenario.tunnel.roughness_sigma_m as f32;
+    // The simulated scanner sweeps only when the scenario says so (`lidar.sweep`); scans
+    // taken at one instant must not be carried over a sweep that never was.
+    cfg.deskew = scenario.lidar.sweep;
     cfg
 }
 
@@ -196,8 +199,11 @@ impl Estimator for LocCoreEstimator<'_> {
             &self.localizer.config().sensor,
             &mut self.scan,
         );
+        // The scan's stamp is its time on the run's clock (the telegram's µs field).
+        let stamp_us = (scan.t_s * 1e6).round().rem_euclid(4_294_967_296.0) as u32;
+        self.scan.set_timing(scan.layout.timing(stamp_us));
         let status = match loaded {
-            Ok(()) => EstimatorStatus::Localizer(self.localizer.update_scan(&self.scan)),
+            Ok(()) => EstimatorStatus::Localizer(self.localizer.update_scan(&mut self.scan)),
             Err(e) => EstimatorStatus::ScanUnusable(e),
         };
         let pose = self.localizer.pose().map_or(self.last_reset, |p| SimPose {

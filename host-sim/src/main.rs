@@ -588,7 +588,8 @@ struct ExportArgs {
     map: Option<PathBuf>,
     /// Also write the localiser's configuration record the controller reads from its map
     /// flash region (loc-core's `LocalizerConfig`, `LCCF`): the scenario's sensor layout and
-    /// mounting, matcher, range noise, wall roughness and odometry noise.
+    /// mounting, matcher, range noise, wall roughness and odometry noise, and the sweep's
+    /// de-skew on (a vehicle's scanner sweeps, whether the scenario simulates it or not).
     #[arg(long)]
     config_out: Option<PathBuf>,
 }
@@ -1267,9 +1268,10 @@ fn cmd_export(a: &ExportArgs) -> Result<(), String> {
     };
     if let (Some(path), Some((s, _))) = (&a.config_out, &scenario) {
         let mut buf = vec![0u8; loc_core::localizer::CONFIG_RECORD_MAX_BYTES];
-        let n = host_sim::estimator::localizer_config(s)
-            .to_record(&mut buf)
-            .map_err(|e| e.to_string())?;
+        // The record is for a vehicle, whose LMS5xx sweeps whatever the scenario simulates.
+        let mut config = host_sim::estimator::localizer_config(s);
+        config.deskew = true;
+        let n = config.to_record(&mut buf).map_err(|e| e.to_string())?;
         write_file(path, &buf[..n])?;
         eprintln!(
             "wrote {} (configuration record, {n} bytes); flash it in the 4 KiB before the start pose",

@@ -26,7 +26,7 @@ use loc_core::landmark::LandmarkModel;
 use loc_core::localizer::{Localizer, LocalizerConfig, Stage, StageObserver};
 use loc_core::map::TunnelMap;
 use loc_core::matching::{MatcherKind, RoughnessModel};
-use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::scan::{Scan, ScanTiming, SensorSetup, SweepMotion, LMS511_MAX_BEAMS};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 use nalgebra::{Matrix3, Vector3};
 
@@ -99,7 +99,7 @@ fn stages(c: &mut Criterion) {
         let fresh =
             || Box::new(Localizer::new(&*f.map, config, f.predicted, prior()).expect("init"));
         let mut probe = fresh();
-        let status = probe.update_scan(&f.scan);
+        let status = probe.update_scan(&mut f.scan.clone());
         let m = probe.last_match().expect("the scan matches");
         eprintln!(
             "{matcher:?}: {status}; {} iterations, error {:.1} mm; strip {:?}",
@@ -121,8 +121,8 @@ fn stages(c: &mut Criterion) {
                         elapsed: Duration::ZERO,
                     };
                     for _ in 0..iters {
-                        let mut loc = fresh();
-                        black_box(loc.update_scan_observed(black_box(&f.scan), &mut clock));
+                        let (mut loc, mut scan) = (fresh(), f.scan.clone());
+                        black_box(loc.update_scan_observed(black_box(&mut scan), &mut clock));
                     }
                     clock.elapsed
                 })
@@ -130,13 +130,37 @@ fn stages(c: &mut Criterion) {
         }
         c.bench_function(&format!("end_to_end_{name}"), |b| {
             b.iter_batched_ref(
-                fresh,
-                |loc| loc.update_scan(black_box(&f.scan)),
+                || (fresh(), f.scan.clone()),
+                |(loc, scan)| loc.update_scan(black_box(scan)),
                 BatchSize::SmallInput,
             )
         });
     }
     rough_walls(c, &f);
+    deskew(c, &f);
+}
+
+/// Carrying the scan's points over the scanner's sweep (`Scan::deskew`, part of the strip
+/// stage when the scan has a timing and the localizer a previous scan): 3 m/s and
+/// 0.5 rad/s over a 25 Hz LMS511 sweep.
+fn deskew(c: &mut Criterion, f: &Fixture) {
+    let mut timed = f.scan.clone();
+    timed.set_timing(Some(ScanTiming {
+        stamp_us: 40_000,
+        beam_period_s: 1.0 / 54_000.0,
+    }));
+    let motion = SweepMotion {
+        v_x_mps: 3.0,
+        v_y_mps: 0.0,
+        omega_radps: 0.5,
+    };
+    c.bench_function("deskew", |b| {
+        b.iter_batched_ref(
+            || timed.clone(),
+            |scan| scan.deskew(black_box(&motion)),
+            BatchSize::SmallInput,
+        )
+    });
 }
 
 /// The same scan with the walls' roughness modelled (host-sim's tunnels: 5 mm, correlated
@@ -151,8 +175,8 @@ fn rough_walls(c: &mut Criterion, f: &Fixture) {
     let fresh = || Box::new(Localizer::new(&*f.map, config, f.predicted, prior()).expect("init"));
     c.bench_function("end_to_end_hausdorff_rough_walls", |b| {
         b.iter_batched_ref(
-            fresh,
-            |loc| loc.update_scan(black_box(&f.scan)),
+            || (fresh(), f.scan.clone()),
+            |(loc, scan)| loc.update_scan(black_box(scan)),
             BatchSize::SmallInput,
         )
     });

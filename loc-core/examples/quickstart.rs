@@ -50,7 +50,7 @@ fn main() {
         }
         sim.simulate(&*map, &truth, &config.sensor, &mut ranges_m);
         scan.load_ranges_m(&config.sensor, &ranges_m); // 0 = no echo, skipped
-        let status = localizer.update_scan(&scan);
+        let status = localizer.update_scan(&mut scan);
         let pose = localizer.pose().expect("initialised");
         println!(
             "scan {k:2}: x {:8.4} m  y {:7.4} m  θ {:8.5} rad  error {:5.1} mm  {status}",

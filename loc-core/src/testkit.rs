@@ -191,9 +191,25 @@ impl ScanSimulator {
         setup: &SensorSetup,
         ranges_m: &mut [f32],
     ) {
-        let sensor = vehicle_pose.compose(&setup.mounting);
-        let origin = sensor.translation();
+        self.simulate_swept(map, |_| *vehicle_pose, 0.0, setup, ranges_m);
+    }
+
+    /// [`ScanSimulator::simulate`] as the scanner's mirror sweeps: beam `i` of `n` is taken
+    /// `(n − 1 − i) · beam_period_s` seconds before the last beam, from the vehicle's world
+    /// pose `vehicle_before(seconds)` that long before it.
+    pub fn simulate_swept(
+        &mut self,
+        map: &dyn MapQuery,
+        vehicle_before: impl Fn(f32) -> Pose2,
+        beam_period_s: f32,
+        setup: &SensorSetup,
+        ranges_m: &mut [f32],
+    ) {
+        let n = ranges_m.len();
         for (i, r) in ranges_m.iter_mut().enumerate() {
+            let before_s = (n - 1 - i) as f32 * beam_period_s;
+            let sensor = vehicle_before(before_s).compose(&setup.mounting);
+            let origin = sensor.translation();
             let angle = sensor.theta_rad + setup.geometry.beam_angle_rad(i);
             *r = match map.raycast(origin, angle, setup.geometry.max_range_m) {
                 Some(hit) => {

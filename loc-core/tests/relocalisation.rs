@@ -113,7 +113,7 @@ fn drive(
             }
         }
         sim.simulate_scan(&*t.map, &truth, &setup, LMS511_MAX_BEAMS, &mut scan);
-        let status = localizer.update_scan(&scan);
+        let status = localizer.update_scan(&mut scan);
         result.last_status = status;
         // The protection level: no pose while relocalising, no bound while a lock waits for
         // the map's confirmation; where it is given and available, it holds.
@@ -275,7 +275,7 @@ fn a_search_with_a_pose_is_called_off_once_the_landmarks_confirm_the_pose() {
         let _ = localizer.predict_odometry(&OdometryIncrement::between(&truth, &next));
         (s, truth, driven) = (s + STEP_M, next, driven + STEP_M);
         sim.simulate_scan(&*t.map, &truth, &setup, LMS511_MAX_BEAMS, &mut scan);
-        let status = localizer.update_scan(&scan);
+        let status = localizer.update_scan(&mut scan);
         let relocalising = matches!(status, Status::Relocalising { .. });
         assert_eq!(relocalising, localizer.is_relocalising(), "{status:?}");
         match (called_off_after_m, relocalising) {

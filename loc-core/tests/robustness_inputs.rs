@@ -87,8 +87,8 @@ proptest! {
         icp in any::<bool>(),
     ) {
         let mut loc = localizer(if icp { MatcherKind::Icp } else { MatcherKind::Hausdorff });
-        let scan = Box::new(Scan::from_ranges_m(&SensorSetup::default(), &ranges));
-        let status = loc.update_scan(&scan);
+        let mut scan = Box::new(Scan::from_ranges_m(&SensorSetup::default(), &ranges));
+        let status = loc.update_scan(&mut scan);
         assert_ne!(status, Status::NotInitialised);
         assert_sane(&loc);
         prop_assert!(loc.last_labels().len() <= scan.len());
@@ -113,7 +113,7 @@ proptest! {
             if k % scan_every == 0 {
                 let pose = loc.pose().unwrap();
                 sim.simulate_scan(map(), &pose, &SensorSetup::default(), LMS511_MAX_BEAMS, &mut scan);
-                loc.update_scan(&scan);
+                loc.update_scan(&mut scan);
                 assert_sane(&loc);
             }
         }
@@ -169,7 +169,7 @@ fn degenerate_scans_are_rejected_cleanly() {
         for (i, ranges) in cases.iter().enumerate() {
             let mut loc = localizer(matcher);
             let before = loc.pose().unwrap();
-            let status = loc.update_scan(&Scan::from_ranges_m(&setup, ranges));
+            let status = loc.update_scan(&mut Scan::from_ranges_m(&setup, ranges));
             assert_sane(&loc);
             if i < 5 {
                 assert!(
@@ -194,8 +194,8 @@ fn degenerate_scans_are_rejected_cleanly() {
 #[test]
 fn uninitialised_localizer_ignores_scans() {
     let mut loc = Box::new(Localizer::uninitialised(map(), LocalizerConfig::default()));
-    let scan = Scan::from_ranges_m(&SensorSetup::default(), &[5.0; 100]);
-    assert_eq!(loc.update_scan(&scan), Status::NotInitialised);
+    let mut scan = Scan::from_ranges_m(&SensorSetup::default(), &[5.0; 100]);
+    assert_eq!(loc.update_scan(&mut scan), Status::NotInitialised);
     assert!(loc.pose().is_none() && loc.covariance().is_none());
     assert!(loc.predict_odometry(&OdometryIncrement::default()).is_ok());
 }

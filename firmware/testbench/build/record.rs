@@ -2,9 +2,9 @@
 //! straight 5 m tunnel with the paper's P1 triangular landmarks, its map flash image exactly
 //! as it is flashed (and the images of the same tunnel continued to 1 km and 10 km,
 //! `map_1km.bin`, `map_10km.bin`), the start pose the controller is given (the truth 0.34 m and
-//! 0.02 rad off), and LMS511 scans (1141 beams, 10 mm noise) along a drive through it as
-//! the CoLa-B `LMDscandata` telegrams an LMS511 sends, with the true poses and a
-//! 2 %-scale-error odometry between scans.
+//! 0.02 rad off), and LMS511 scans (1141 beams, 10 mm noise, each beam taken as the mirror
+//! swept past it) along a drive through it as the CoLa-B `LMDscandata` telegrams an LMS511
+//! sends, with the true poses and a 2 %-scale-error odometry between scans.
 //!
 //! Written into OUT_DIR (`map.bin`, `start_pose.bin`, `scans_colab.bin`, `recording.rs`)
 //! and embedded by `src/recorded.rs`; `scans_colab.bin` is also what the LMS5xx emulator
@@ -21,7 +21,7 @@ use loc_core::geometry::Pose2;
 use loc_core::landmark::LandmarkModel;
 use loc_core::localizer::StartPose;
 use loc_core::map::TunnelMap;
-use loc_core::scan::{SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::scan::{SensorSetup, SweepMotion, LMS511_MAX_BEAMS};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 
 /// Tunnel length, metres.
@@ -36,6 +36,10 @@ const SCANS: usize = 40;
 const START_S_M: f32 = 20.0;
 /// Travel between scans, metres (10 m/s at 25 Hz).
 const STEP_M: f32 = 0.4;
+/// Time between scans, seconds (25 Hz).
+const SCAN_PERIOD_S: f32 = 0.04;
+/// Time between beams, seconds: the LMS511's 54 kHz shots at 25 Hz and 1/6°.
+const BEAM_PERIOD_S: f32 = 1.0 / 54_000.0;
 /// Odometry scale error (a skid-steer loader drifts 1–5 % of distance).
 const ODOMETRY_SCALE: f32 = 1.02;
 /// Error of the start pose given to the controller: x, y (metres), heading (radians).
@@ -178,7 +182,21 @@ pub fn write_recordings(out: &Path) {
     let mut colab = Vec::new();
     for k in 0..SCANS {
         let pose = true_pose(&spec, k);
-        sim.simulate(&*map, &pose, &setup, &mut ranges_m);
+        // As the LMS511's mirror sweeps: each beam from where the vehicle was when it was
+        // taken (21 ms over the 1141 beams, 21 cm at 10 m/s), the scan stamped at its last.
+        let after = k.max(1);
+        let motion = SweepMotion::from_motion(
+            &true_pose(&spec, after - 1).between(&true_pose(&spec, after)),
+            SCAN_PERIOD_S,
+        )
+        .expect("the drive moves");
+        sim.simulate_swept(
+            &*map,
+            |before_s| pose.compose(&motion.pose_before(before_s)),
+            BEAM_PERIOD_S,
+            &setup,
+            &mut ranges_m,
+        );
         // What the LMS511 reports: whole millimetres (65534 at most: 0xFFFF reads as
         // saturated), 0 = no echo.
         let values = ranges_m

@@ -12,6 +12,7 @@ use lidar_driver::{Frame, ScanData};
 use loc_core::filter::OdometryIncrement;
 use loc_core::localizer::{StartPose, StartPoseError, Status};
 use loc_core::map::{MapError, MapImage};
+use loc_core::scan::SweepMotion;
 
 use crate::recorded::{self, ODOMETRY, SCAN_COUNT, TRUE_POSES};
 use crate::stage_stats::StageStats;
@@ -61,6 +62,9 @@ pub enum ReplayError {
 pub fn start_pose() -> Result<StartPose, StartPoseError> {
     StartPose::from_bytes(recorded::START_POSE_BYTES)
 }
+
+/// Time between the recording's scans, seconds (25 Hz).
+const SCAN_PERIOD_S: f32 = 0.04;
 
 fn odometry(k: usize) -> OdometryIncrement {
     let [dx_m, dy_m, dtheta_rad] = ODOMETRY.get(k).copied().unwrap_or([0.0; 3]);
@@ -130,6 +134,11 @@ pub fn replay<B: Board>(
             .and_then(|f| ScanData::new_checked(f).ok())
             .ok_or(ReplayError::Telegram(k))?;
         timer.add_since(ScanStage::Scan, t0);
+        // The odometry's rate at the scan (the recording's vehicle is already moving at its
+        // first: the rate there is the next interval's).
+        if let Some(rate) = SweepMotion::from_motion(&odometry(k.max(1)).as_pose(), SCAN_PERIOD_S) {
+            controller.hint_sweep_speed(&rate);
+        }
         let frame = controller
             .on_scan(&telegram, Some(&odometry(k)), &mut timer)
             .map_err(|_| ReplayError::Telegram(k))?;

@@ -14,6 +14,9 @@
 //!   scan frequency and the shot (measurement) frequency, and `360° · f_scan / f_shot` is
 //!   the step the scanner really steps by. It is used when it rounds to the telegram's own
 //!   step (so a header that does not describe the channel is never trusted over it);
+//! - **when the beams were taken** ([`BeamLayout::timing`]): the header's time stamp
+//!   ("time since start-up", µs) and the shot period `1 / f_shot`, so that loc-core can
+//!   carry each echo over the mirror's sweep (21 ms at 25 Hz) to the scan's last beam;
 //! - the channel's scale factor and offset (mm = raw · factor + offset; 2.0 in long-range
 //!   modes), a raw 0 as no echo and a raw `0xFFFF` as a saturated reading, not a range;
 //! - the **echo** of each beam ([`EchoSelection`]): a scanner set up for several echoes
@@ -40,7 +43,7 @@ use core::fmt;
 
 use lidar_driver::scandata::{Channel, ChannelHeader};
 use lidar_driver::{ChannelKind, ScanData, ScanHeader};
-use loc_core::scan::{Scan, ScanGeometry, SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::scan::{Scan, ScanGeometry, ScanTiming, SensorSetup, LMS511_MAX_BEAMS};
 
 /// Most echoes per beam an LMS5xx reports (`DIST1`…`DIST5`).
 pub const MAX_ECHOES: usize = 5;
@@ -109,6 +112,25 @@ impl BeamLayout {
     /// Angle of beam `index`, radians (sensor frame, not wrapped).
     pub fn beam_angle_rad(&self, index: usize) -> f64 {
         self.start_angle_rad() + index as f64 * self.step_rad()
+    }
+
+    /// Time from one beam to the next, seconds: the time the mirror takes to turn by the
+    /// step used, `step / (360° · f_scan)` (the shot period `1 / f_shot` when the header's
+    /// frequencies describe the channel); `None` without a scan frequency.
+    pub fn beam_period_s(&self) -> Option<f64> {
+        (self.scan_frequency_1e2_hz > 0).then(|| {
+            let f_scan_hz = f64::from(self.scan_frequency_1e2_hz) / 100.0;
+            self.step_used_1e4_deg() / 3_600_000.0 / f_scan_hz
+        })
+    }
+
+    /// When the beams of a scan of this layout stamped `stamp_us` (the header's "time since
+    /// start-up", µs on the scanner's clock) were taken; `None` without a beam period.
+    pub fn timing(&self, stamp_us: u32) -> Option<ScanTiming> {
+        self.beam_period_s().map(|p| ScanTiming {
+            stamp_us,
+            beam_period_s: p as f32,
+        })
     }
 
     /// The layout as loc-core's beam geometry, with the range limits `min_range_m` and
@@ -227,8 +249,8 @@ impl fmt::Display for ScanInputError {
 
 /// Fills `scan` from `telegram`'s distance channels: per beam the echo `selection` chooses
 /// among `DIST1`…`DIST5` (those the telegram carries), `DIST1`'s beam layout (exact step
-/// where the telegram allows) and scale, and `sensor`'s mounting and range limits. Returns
-/// the layout used. Allocation-free; with `DIST1` alone (or [`EchoSelection::First`]) the
+/// where the telegram allows) and scale, and `sensor`'s mounting and range limits, with
+/// the beams' timing from the header's time stamp and frequencies. Returns the layout used. Allocation-free; with `DIST1` alone (or [`EchoSelection::First`]) the
 /// values are read straight from it.
 pub fn load_scan(
     telegram: &ScanData<'_>,
@@ -264,6 +286,7 @@ pub fn load_scan(
             sensor,
             scan,
         )?;
+        scan.set_timing(layout.timing(telegram.header.time_since_startup_us));
     } else {
         let values = SelectedEchoes::new(
             echoes.map(|c| c.map(|c| c.values())),
@@ -278,6 +301,7 @@ pub fn load_scan(
             sensor,
             scan,
         )?;
+        scan.set_timing(layout.timing(telegram.header.time_since_startup_us));
     }
     Ok(layout)
 }
@@ -293,7 +317,8 @@ fn same_beams(a: &ChannelHeader, b: &ChannelHeader) -> bool {
 /// Fills `scan` from raw distance values laid out as `layout` (what [`load_scan`] does once
 /// it has the channel; the simulator calls it with the values it puts in its telegrams).
 /// Range in mm = `raw · scale_factor + scale_offset_mm`; raw 0 is no echo, raw `0xFFFF`
-/// saturated.
+/// saturated. The scan has no timing: a caller that knows the scan's stamp sets it with
+/// [`BeamLayout::timing`] and [`Scan::set_timing`].
 pub fn load_values(
     layout: &BeamLayout,
     values: impl ExactSizeIterator<Item = u16>,

@@ -57,6 +57,49 @@ fn real_lms511_scans_step_by_exactly_one_sixth_of_a_degree() {
 }
 
 #[test]
+fn real_lms511_scans_say_when_their_beams_were_taken() {
+    // 25 Hz and 54 kHz: one beam every 18.5 µs, the 1141 beams over 21.1 ms, stamped on the
+    // scanner's µs clock 40 ms apart.
+    let scans = capture_scans(sick_captures::LMS511_S2H);
+    let mut scan = Scan::new();
+    let mut stamps = Vec::new();
+    for bytes in &scans {
+        let t = decode(bytes);
+        load_scan(&t, &sensor(), EchoSelection::Last, &mut scan).unwrap();
+        let timing = scan.timing().unwrap();
+        assert_eq!(timing.stamp_us, t.header.time_since_startup_us);
+        assert!((timing.beam_period_s - 1.0 / 54_000.0).abs() < 1e-12);
+        assert!((scan.sweep_s() - 1140.0 / 54_000.0).abs() < 1e-7);
+        stamps.push(timing);
+    }
+    for w in stamps.windows(2) {
+        let dt_s = w[1].seconds_since(&w[0]);
+        // Consecutive telegrams of the capture, or a whole number of scans apart.
+        let periods = dt_s / 0.04;
+        assert!(
+            periods >= 0.99 && (periods - periods.round()).abs() < 0.01,
+            "{dt_s}"
+        );
+    }
+    // Raw values without a header carry no timing until the caller gives it.
+    let layout = BeamLayout::of(
+        &decode(&scans[0]).header,
+        &decode(&scans[0]).channels16().iter().next().unwrap().header,
+    );
+    load_values(
+        &layout,
+        [5000u16; 1141].into_iter(),
+        1.0,
+        0.0,
+        &sensor(),
+        &mut scan,
+    )
+    .unwrap();
+    assert!(scan.timing().is_none());
+    assert_eq!(layout.timing(7).map(|t| t.stamp_us), Some(7));
+}
+
+#[test]
 fn real_lms111_and_tim_scans_keep_a_step_their_header_agrees_with() {
     for (name, count, start, step) in [
         (sick_captures::LMS111_S2H, 175, -450_000, 5000),

@@ -42,6 +42,12 @@ pub struct LocalizerConfig {
     pub relocalise: RelocaliseConfig,
     /// The integrity risk, alert limit and fault bounds of the protection level.
     pub protection: ProtectionConfig,
+    /// Whether a scan's points are carried to its last beam over the scanner's sweep
+    /// ([`crate::scan::Scan::deskew`], at the filter's speed since the last scan). On for
+    /// every real LMS5xx, whose beams of a 25 Hz scan span 21 ms; off only for scans taken
+    /// at one instant (a simulator without the sweep). Scans without a
+    /// [`crate::scan::ScanTiming`] are never de-skewed.
+    pub deskew: bool,
 }
 
 impl LocalizerConfig {
@@ -60,6 +66,7 @@ impl LocalizerConfig {
         integrity: IntegrityConfig::DEFAULT,
         relocalise: RelocaliseConfig::DEFAULT,
         protection: ProtectionConfig::DEFAULT,
+        deskew: true,
     };
 }
 

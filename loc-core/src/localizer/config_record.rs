@@ -4,7 +4,7 @@
 //! noise — everything [`LocalizerConfig`] holds, so the controller localises as the host
 //! tools do for the same vehicle.
 //!
-//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (8), reserved
+//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (9), reserved
 //! u16 (0), payload length u32, CRC-32 (IEEE) of the payload u32 — then the payload, the
 //! `postcard` encoding of [`LocalizerConfig`] (at most [`CONFIG_RECORD_MAX_BYTES`] in all).
 //! Erased flash or zeros read as [`ConfigRecordError::NotPresent`]; bytes after the record
@@ -17,14 +17,15 @@ use crate::crc::crc32;
 
 /// The record's magic.
 pub const CONFIG_MAGIC: [u8; 4] = *b"LCCF";
-/// The format version this crate writes and reads (8: the landmark points' budget,
+/// The format version this crate writes and reads (9: the sweep's de-skew,
+/// `LocalizerConfig::deskew`; 8: the landmark points' budget,
 /// `LocalizerConfig::max_landmark_points`; 7: the roughness model's correlation
 /// length, `RoughnessModel::correlation_m`, where 6 held a patch length; 6: weakly observed
 /// directions, `MatchConfig::weak_information_points` and `UpdateConfig::weak_refix_ratio`,
 /// and no wall range limit; 5 added the wall-end observation's configuration,
 /// `LocalizerConfig::wall_end`; 4 added the protection level's, 3 the
 /// relocaliser's, 2 the matcher's work budget; older records lack them and are refused).
-pub const CONFIG_FORMAT_VERSION: u16 = 8;
+pub const CONFIG_FORMAT_VERSION: u16 = 9;
 /// Bytes of the header.
 const HEADER_BYTES: usize = 16;
 /// Upper bound on a whole record, bytes.

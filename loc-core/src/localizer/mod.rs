@@ -35,6 +35,7 @@ mod protection;
 mod stages;
 mod start_pose;
 mod status;
+mod sweep_speed;
 
 pub use config::LocalizerConfig;
 pub use config_record::{
@@ -47,6 +48,7 @@ pub use start_pose::{
     StartPose, StartPoseError, START_POSE_BYTES, START_POSE_MAGIC, START_POSE_VERSION,
 };
 pub use status::{RejectReason, Status};
+pub use sweep_speed::{SweepSpeed, MAX_SWEEP_BASELINE_S, SWEEP_SPEED_BASELINE_S};
 
 use nalgebra::Matrix3;
 
@@ -58,7 +60,7 @@ use crate::matching::{
     MatchWorkspace, PositionPrior, WallEndMemory,
 };
 use crate::relocalise::{Lock, Relocaliser};
-use crate::scan::{Scan, LMS511_MAX_BEAMS};
+use crate::scan::{Scan, SweepMotion, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
 
 /// The localisation pipeline over a map `M`.
@@ -91,7 +93,14 @@ pub struct Localizer<'m, M: MapQuery> {
     /// Matches the filter's gate refused since then, and in a row.
     gate_failures: u8,
     gate_failures_in_row: u8,
+    /// The filter's track after recent scans: the vehicle's speed over the next sweep
+    /// ([`LocalizerConfig::deskew`]).
+    sweep_speed: SweepSpeed,
 }
+
+/// Largest turn over one sweep that is believed, radians (a loader turns at most
+/// ≈ 1 rad/s, 0.02 rad in a 25 Hz sweep; a larger one is a broken prediction).
+const MAX_SWEEP_TURN_RAD: f32 = 0.2;
 
 impl<'m, M: MapQuery> Localizer<'m, M> {
     /// A localizer at `initial_pose` (vehicle in world) with covariance `initial_cov` of
@@ -134,6 +143,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             searched_last_scan: false,
             gate_failures: 0,
             gate_failures_in_row: 0,
+            sweep_speed: SweepSpeed::NEW,
         }
     }
 
@@ -171,6 +181,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.doubtful_since_m = None;
         self.gate_failures = 0;
         self.gate_failures_in_row = 0;
+        self.sweep_speed.reset();
         self.status = Status::NotInitialised;
     }
 
@@ -202,6 +213,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.doubtful_since_m = None;
         self.gate_failures = 0;
         self.gate_failures_in_row = 0;
+        self.sweep_speed.reset();
         Ok(())
     }
 
@@ -282,6 +294,15 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         r
     }
 
+    /// The vehicle's speed for the next scan's sweep as the integrator measures it (its
+    /// odometry's rate, vehicle frame), for a scan the filter's own track does not reach
+    /// back from: the first after [`Localizer::initialise`] (a start or a resume while
+    /// moving). Used by that scan only; later scans take the filter's track. Without it, the
+    /// first scan is not de-skewed.
+    pub fn hint_sweep_speed(&mut self, motion: SweepMotion) {
+        self.sweep_speed.hint(motion);
+    }
+
     /// Adds an applied prediction's distance to the odometer.
     fn count_distance(&mut self, applied: bool, distance_m: f32) {
         if applied && distance_m.is_finite() {
@@ -290,25 +311,57 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     }
 
     /// Runs strip → select → pre-align → match → update on one scan (vehicle-frame points
-    /// in beam order, as [`Scan`] holds them) and returns the new status.
-    pub fn update_scan(&mut self, scan: &Scan) -> Status {
+    /// in beam order, as [`Scan`] holds them) and returns the new status. The filter must
+    /// have been predicted to the scan's **last beam**, the instant its pose refers to.
+    ///
+    /// With [`LocalizerConfig::deskew`] and a scan that says when its beams were taken
+    /// ([`Scan::timing`]), the scan's points are first carried to where they lie at that
+    /// last beam ([`Scan::deskew`]), at the speed the filter moved at over its recent track
+    /// ([`SweepSpeed`]: from its pose after a scan 0.2–0.4 s back to its prediction now, over
+    /// the time between the scans' stamps; not on the first scan after
+    /// [`Localizer::initialise`], nor after a gap over 0.5 s).
+    pub fn update_scan(&mut self, scan: &mut Scan) -> Status {
         self.update_scan_observed(scan, &mut ())
     }
 
-    /// [`Localizer::update_scan`], reporting each [`Stage`] to `observer` as it runs.
+    /// [`Localizer::update_scan`], reporting each [`Stage`] to `observer` as it runs (the
+    /// de-skew is part of [`Stage::Strip`]).
     pub fn update_scan_observed<O: StageObserver>(
         &mut self,
-        scan: &Scan,
+        scan: &mut Scan,
         observer: &mut O,
     ) -> Status {
+        let status = self.localise(scan, observer);
+        if let (Some(timing), Some(ekf)) = (scan.timing(), self.ekf.as_ref()) {
+            self.sweep_speed.record(timing, ekf.pose());
+        }
+        status
+    }
+
+    /// Carries `scan`'s points to its last beam at the filter's speed over its recent
+    /// track (see [`Localizer::update_scan`]).
+    fn deskew(&self, scan: &mut Scan) {
+        let (Some(ekf), Some(timing), true) =
+            (self.ekf.as_ref(), scan.timing(), self.config.deskew)
+        else {
+            return;
+        };
+        let motion = self.sweep_speed.motion(&timing, &ekf.pose());
+        if let Some(m) = motion.filter(|m| m.turn_over_rad(scan.sweep_s()) <= MAX_SWEEP_TURN_RAD) {
+            scan.deskew(&m);
+        }
+    }
+
+    /// Strip, then relocalise or match and update, on a scan ready to localise on.
+    fn localise<O: StageObserver>(&mut self, scan: &mut Scan, observer: &mut O) -> Status {
         if self.ekf.is_none() && !self.relocalising {
             self.status = Status::NotInitialised;
             return self.status;
         }
+        observer.begin(Stage::Strip);
+        self.deskew(scan);
         let points = scan.points();
         let n = points.len().min(self.labels.len());
-
-        observer.begin(Stage::Strip);
         let labels = self.labels.get_mut(..n).unwrap_or_default();
         let strip = strip_walls(points, &self.config.strip, labels);
         self.last_strip = Some(strip);
@@ -472,6 +525,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(sp * sp, sp * sp, st * st));
             if let Ok(ekf) = Ekf::with_scale(lock.pose, cov, self.config.odometry.scale_sd) {
                 self.ekf = Some(ekf);
+                self.sweep_speed.reset();
             }
         }
         self.integrity_monitor = IntegrityMonitor::UNCONFIRMED;

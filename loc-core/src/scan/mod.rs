@@ -10,6 +10,14 @@
 //! (`0xFFFF`: the echo lies beyond what the channel's scale can encode), a non-finite range,
 //! a range outside `[min_range_m, max_range_m]`, or a beam beyond the fixed capacity
 //! [`LMS511_MAX_BEAMS`] is counted in [`DroppedBeams`] and left out.
+//!
+//! A scan loaded from a telegram also knows when its beams were taken ([`ScanTiming`]);
+//! [`Scan::deskew`] then places every echo where it lies at the scan's last beam, given the
+//! vehicle's motion over the sweep ([`SweepMotion`]; see [`sweep`]).
+
+mod sweep;
+
+pub use sweep::{ScanTiming, SweepMotion};
 
 use core::f32::consts::PI;
 
@@ -225,6 +233,10 @@ pub struct Scan {
     points: heapless::Vec<ScanPoint, LMS511_MAX_BEAMS>,
     dropped: DroppedBeams,
     beams_received: u16,
+    /// When the beams were taken (`None`: unknown, as if at one instant).
+    timing: Option<ScanTiming>,
+    /// The motion the points were carried by ([`Scan::deskew`]), once.
+    deskewed: Option<SweepMotion>,
     directions: BeamDirections,
 }
 
@@ -298,6 +310,8 @@ impl Scan {
                 over_capacity: 0,
             },
             beams_received: 0,
+            timing: None,
+            deskewed: None,
             directions: BeamDirections::new(),
         }
     }
@@ -387,6 +401,7 @@ impl Scan {
             dropped,
             beams_received,
             directions,
+            ..
         } = self;
         let count = |c: &mut u16| *c = c.saturating_add(1);
         // `for_each`, not `for`: it lets a telegram's value iterator dispatch on its wire
@@ -429,11 +444,59 @@ impl Scan {
         self.directions.prepare(geometry, LMS511_MAX_BEAMS);
     }
 
-    /// Empties the scan and resets the counts.
+    /// Empties the scan and resets the counts and the timing.
     pub fn clear(&mut self) {
         self.points.clear();
         self.dropped = DroppedBeams::default();
         self.beams_received = 0;
+        self.timing = None;
+        self.deskewed = None;
+    }
+
+    /// Says when the loaded beams were taken (the loader's job: `scan-input` takes it from
+    /// the telegram's header). Loading a scan forgets it.
+    pub fn set_timing(&mut self, timing: Option<ScanTiming>) {
+        self.timing = timing;
+    }
+
+    /// When the beams were taken, if known.
+    #[inline]
+    pub fn timing(&self) -> Option<ScanTiming> {
+        self.timing
+    }
+
+    /// Seconds from the first beam received to the last (0 without a timing).
+    pub fn sweep_s(&self) -> f32 {
+        self.timing.map_or(0.0, |t| {
+            f32::from(self.beams_received.saturating_sub(1)) * t.beam_period_s
+        })
+    }
+
+    /// The motion the points were carried by, when [`Scan::deskew`] has run.
+    #[inline]
+    pub fn deskewed(&self) -> Option<SweepMotion> {
+        self.deskewed
+    }
+
+    /// Moves every point (vehicle frame) to where the echo lies in the vehicle frame at
+    /// the scan's last beam, the vehicle moving by `motion` over the sweep: beam `i` was
+    /// taken `(n − 1 − i) · beam_period_s` before it. The beams' own angle and range are
+    /// kept as measured. Needs the scan's [`ScanTiming`]; does nothing (returns `false`)
+    /// without one, or when the scan was already carried.
+    pub fn deskew(&mut self, motion: &SweepMotion) -> bool {
+        let Some(timing) = self.timing else {
+            return false;
+        };
+        if self.deskewed.is_some() {
+            return false;
+        }
+        let last = self.beams_received.saturating_sub(1);
+        for p in self.points.iter_mut() {
+            let before_s = f32::from(last.saturating_sub(p.beam_index)) * timing.beam_period_s;
+            p.vehicle = motion.carry(p.vehicle, before_s);
+        }
+        self.deskewed = Some(*motion);
+        true
     }
 
     /// Appends an already converted point (for tests and tools that build scans from
