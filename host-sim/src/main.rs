@@ -197,6 +197,11 @@ struct ScenarioArgs {
     /// LMS511 scan rate in Hz (25, 35, 50, 75, 100; resolution follows).
     #[arg(long, value_enum)]
     rate: Option<RateArg>,
+    /// Model the scanner's sweep, as a real LMS511 takes its beams (scenario `lidar.sweep`):
+    /// each beam from where the vehicle was when the mirror passed it (21 ms over a 25 Hz
+    /// scan); the localiser then carries each echo to the scan's last beam.
+    #[arg(long)]
+    sweep: bool,
     /// Dust or spray: this share of the beams (0–1) returns an early echo from a cloud,
     /// the wall on the next echo (scenario `[lidar.dust]`: range, blocked share, patches).
     #[arg(long, value_name = "FRACTION")]
@@ -618,6 +623,7 @@ impl ScenarioArgs {
             length: None,
             speed: None,
             rate: None,
+            sweep: false,
             dust: None,
             people: None,
             vehicles: None,
@@ -651,6 +657,7 @@ fn load_scenario(a: &ScenarioArgs) -> Result<Scenario, String> {
         install_sd_m: a.install_sd,
         moved_fraction: a.moved_fraction,
         gyro: a.gyro,
+        sweep: a.sweep,
         moved: a
             .move_landmark
             .iter()

@@ -253,6 +253,10 @@ pub fn run(scenario: &Scenario, options: &HilOptions, out: &Path) -> Result<HilR
             dialect: options.dialect,
             rate_hz: scenario.lidar.rate.frequency_hz() as f32,
             identity,
+            // The recorded telegrams keep their own counters and µs stamps: the scanner's
+            // clock in simulated time (restamped at the host's wall-clock pace, the
+            // controller's sweep speed came out of the lock step's timing, not the drive's).
+            restamp: false,
             ..EmulatorConfig::default()
         },
         source,

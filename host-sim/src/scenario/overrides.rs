@@ -38,6 +38,9 @@ pub struct Overrides {
     pub speed_mps: Option<f64>,
     /// LMS511 rate.
     pub rate: Option<ScanRate>,
+    /// Model the scanner's sweep (`lidar.sweep`): each beam from where the vehicle was
+    /// when the mirror passed it, and the localiser de-skews.
+    pub sweep: bool,
     /// Range noise σ, metres.
     pub range_noise_m: Option<f64>,
     /// Share of the beams whose first echo is dust or spray (`lidar.dust.fraction`).
@@ -84,6 +87,9 @@ impl Overrides {
         s.landmarks.moved.extend_from_slice(&self.moved);
         if let Some(f) = self.moved_fraction {
             s.landmarks.moved_fraction = f;
+        }
+        if self.sweep {
+            s.lidar.sweep = true;
         }
         if self.gyro && s.odometry.gyro.is_none() {
             s.odometry.gyro = Some(crate::vehicle::odometry::GyroSpec::default());
