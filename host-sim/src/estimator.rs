@@ -90,6 +90,12 @@ pub fn localizer_config(scenario: &Scenario) -> LocalizerConfig {
     cfg
 }
 
+/// A scan's stamp on the scanner's µs clock from its time on the run's clock, seconds
+/// (the telegram's field, wrapping at 2³² µs).
+pub fn scan_stamp_us(t_s: f64) -> u32 {
+    (t_s * 1e6).round().rem_euclid(4_294_967_296.0) as u32
+}
+
 /// loc-core's localiser over a stored map, driven like on the vehicle.
 pub struct LocCoreEstimator<'m> {
     localizer: Box<Localizer<'m, TunnelMap>>,
@@ -199,9 +205,8 @@ impl Estimator for LocCoreEstimator<'_> {
             &self.localizer.config().sensor,
             &mut self.scan,
         );
-        // The scan's stamp is its time on the run's clock (the telegram's µs field).
-        let stamp_us = (scan.t_s * 1e6).round().rem_euclid(4_294_967_296.0) as u32;
-        self.scan.set_timing(scan.layout.timing(stamp_us));
+        self.scan
+            .set_timing(scan.layout.timing(scan_stamp_us(scan.t_s)));
         let status = match loaded {
             Ok(()) => EstimatorStatus::Localizer(self.localizer.update_scan(&mut self.scan)),
             Err(e) => EstimatorStatus::ScanUnusable(e),
@@ -248,6 +253,34 @@ mod tests {
             .collect();
         let jumps: Vec<f64> = err.windows(2).map(|w| w[1] - w[0]).collect();
         (jumps.iter().map(|j| j * j).sum::<f64>() / jumps.len() as f64).sqrt()
+    }
+
+    /// Position RMS of `paper-10m` (P1, seed 1) with the scanner's sweep modelled or not,
+    /// metres.
+    fn paper_rms_m(sweep: bool) -> f64 {
+        let mut s = named("paper-10m").unwrap();
+        s.lidar.sweep = sweep;
+        let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).unwrap();
+        let sq: Vec<f64> = log
+            .samples
+            .iter()
+            .map(|x| {
+                (x.estimate.x_m - x.truth.x_m).powi(2) + (x.estimate.y_m - x.truth.y_m).powi(2)
+            })
+            .collect();
+        (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()
+    }
+
+    #[test]
+    fn a_sweeping_scanner_is_de_skewed_in_the_closed_loop() {
+        // Each beam from where the vehicle was when the mirror passed it: taken as one
+        // instant the scan gave 10.5 mm; de-skewed 2.39 mm, against 2.51 mm without the
+        // sweep.
+        let (swept, at_once) = (paper_rms_m(true), paper_rms_m(false));
+        assert!(
+            swept < 1.15 * at_once,
+            "swept {swept} m, at once {at_once} m"
+        );
     }
 
     #[test]

@@ -6,12 +6,13 @@
 //! The localiser's poses only start the joint estimate ([`super::graph`]) and pair the scans'
 //! landmarks with the map's; the map the survey writes comes from the scans.
 
-use loc_core::scan::Scan;
+use loc_core::geometry::Pose2;
+use loc_core::scan::{Scan, SweepMotion};
 use loc_core::strip::{strip_walls, PointLabel};
 
-use crate::estimator::localizer_config;
+use crate::estimator::{localizer_config, scan_stamp_us};
 use crate::replay::scan_source::ScanStream;
-use crate::replay::{replay_with, Replay, ReplayOptions, ReplaySources};
+use crate::replay::{replay_with, Replay, ReplayOptions, ReplaySources, ReplayStep};
 use crate::scenario::Scenario;
 use crate::session::EstimatorChoice;
 use crate::status::EstimatorStatus;
@@ -106,6 +107,14 @@ pub fn run(
         {
             continue;
         }
+        // A sweeping scanner's scan, carried to its last beam as the localiser carried it,
+        // at the speed the estimates around it give (hindsight).
+        if config.deskew {
+            scan.set_timing(lidar.layout.timing(scan_stamp_us(lidar.t_s)));
+            if let Some(m) = sweep_motion(&replay.steps, index - 1) {
+                scan.deskew(&m);
+            }
+        }
         let points = scan.points();
         strip_walls(points, &config.strip, &mut labels);
         keyframes.push(Keyframe {
@@ -130,4 +139,36 @@ pub fn run(
         scans: index,
         replay,
     })
+}
+
+/// Half the span of the estimates a keyframe's sweep speed is taken over, seconds.
+const SWEEP_HALF_SPAN_S: f64 = 0.1;
+/// Longest span used, seconds (across a gap the estimates say nothing of the sweep).
+const MAX_SWEEP_SPAN_S: f64 = 0.5;
+
+/// The vehicle's speed over the sweep of scan `index`: the constant twist between the
+/// estimates about [`SWEEP_HALF_SPAN_S`] before and after it (the first or last scan on
+/// the edges of the drive).
+fn sweep_motion(steps: &[ReplayStep], index: usize) -> Option<SweepMotion> {
+    let t_s = steps.get(index)?.t_s;
+    let (earlier, later) = (steps.get(..index)?, steps.get(index..)?);
+    let before = earlier
+        .iter()
+        .rev()
+        .find(|s| t_s - s.t_s >= SWEEP_HALF_SPAN_S)
+        .or(earlier.first())
+        .or(later.first())?;
+    let after = later
+        .iter()
+        .find(|s| s.t_s - t_s >= SWEEP_HALF_SPAN_S)
+        .or(later.last())?;
+    let span_s = after.t_s - before.t_s;
+    if span_s > MAX_SWEEP_SPAN_S {
+        return None;
+    }
+    let m = before.estimate.between(after.estimate);
+    SweepMotion::from_motion(
+        &Pose2::new(m.x_m as f32, m.y_m as f32, m.theta_rad as f32),
+        span_s as f32,
+    )
 }
