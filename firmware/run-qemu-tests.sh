@@ -251,37 +251,32 @@ if cargo build --release --quiet --bin controller \
   # emulator once reshaped 50 Hz scans onto twice the beams at angles up to 1/12° off (the
   # firmware scored 6.3 mm on 4 m at 50 Hz against run's 2.5 mm); the same scans and the
   # same odometry give the same poses to the micrometre.
-  run_rms=$(cd .. && target/release/host-sim run --scenario paper-10m --landmarks p1 --seed 7 \
-    --rate 75 --length 4 --json --quiet | field position_rms_m)
-  json=$(hil --scenario paper-10m --landmarks p1 --rate 75 --length 4)
-  status=$?
-  rms=$(field position_rms_m <<<"$json" 2>/dev/null)
-  imax=$(field instructions_per_scan_max <<<"$json" 2>/dev/null)
-  echo "hil at 75 Hz: position RMS ${rms:-?} m (host-sim run: $run_rms m), instructions per scan max ${imax:-?}"
-  if [ "$status" -eq 0 ] && [ -n "$rms" ] && [ -n "$imax" ] && [ "$imax" -le 1500000 ] \
-    && python3 -c "import sys; sys.exit(0 if abs($rms - $run_rms) <= 5e-5 else 1)"; then
-    pass "host-sim hil at 75 Hz: the scans and the odometry at their times reach the firmware as recorded (its poses scored like run's, 4 m)"
-  else
-    fail "host-sim hil at 75 Hz (status $status): ${json:0:300}"
-  fi
+  # `like_run LABEL PASS-TEXT ARGS…`: paper-10m (P1, seed 7) under hil with ARGS must score
+  # like `host-sim run` with them, to 0.05 mm, within the instruction budget.
+  like_run() {
+    local label=$1 what=$2; shift 2
+    run_rms=$(cd .. && target/release/host-sim run --scenario paper-10m --landmarks p1 --seed 7 \
+      "$@" --json --quiet | field position_rms_m)
+    json=$(hil --scenario paper-10m --landmarks p1 "$@")
+    status=$?
+    rms=$(field position_rms_m <<<"$json" 2>/dev/null)
+    imax=$(field instructions_per_scan_max <<<"$json" 2>/dev/null)
+    echo "hil $label: position RMS ${rms:-?} m (host-sim run: $run_rms m), instructions per scan max ${imax:-?}"
+    if [ "$status" -eq 0 ] && [ -n "$rms" ] && [ -n "$imax" ] && [ "$imax" -le 1500000 ] \
+      && python3 -c "import sys; sys.exit(0 if abs($rms - $run_rms) <= 5e-5 else 1)"; then
+      pass "host-sim hil $label: $what (4 m)"
+    else
+      fail "host-sim hil $label (status $status): ${json:0:300}"
+    fi
+  }
+  like_run "at 75 Hz" "the scans and the odometry at their times reach the firmware as recorded (its poses scored like run's)" \
+    --rate 75 --length 4
   # The scanner's sweep (`--sweep`): each beam taken from where the vehicle was when the
   # mirror passed it, as a real LMS511 takes it; the firmware carries each echo to the
   # scan's last beam (loc-core's de-skew, the speed from its own track, the telegrams' µs
   # stamps) and must score like run, which de-skews on the host (without the de-skew,
   # paper-10m seed 1 scored 10.5 mm; with it 2.4 mm, 2.5 mm without the sweep).
-  run_rms=$(cd .. && target/release/host-sim run --scenario paper-10m --landmarks p1 --seed 7 \
-    --sweep --length 4 --json --quiet | field position_rms_m)
-  json=$(hil --scenario paper-10m --landmarks p1 --sweep --length 4)
-  status=$?
-  rms=$(field position_rms_m <<<"$json" 2>/dev/null)
-  imax=$(field instructions_per_scan_max <<<"$json" 2>/dev/null)
-  echo "hil with the sweep: position RMS ${rms:-?} m (host-sim run: $run_rms m), instructions per scan max ${imax:-?}"
-  if [ "$status" -eq 0 ] && [ -n "$rms" ] && [ -n "$imax" ] && [ "$imax" -le 1500000 ] \
-    && python3 -c "import sys; sys.exit(0 if abs($rms - $run_rms) <= 5e-5 else 1)"; then
-    pass "host-sim hil with the scanner's sweep: the firmware de-skews the scans as run does (4 m)"
-  else
-    fail "host-sim hil with the sweep (status $status): ${json:0:300}"
-  fi
+  like_run "with the sweep" "the firmware de-skews the scans as run does" --sweep --length 4
   echo "--> host-sim hil with a stall: the watchdog resets the controller mid-drive, it bridges the outage by odometry and tracks on"
   # Built to hang once after 40 scans; the product is built again for the tests after. The
   # vehicle drives on for 1.5 s while the controller restarts (host-sim hil's default
