@@ -14,7 +14,7 @@ use loc_core::geometry::Pose2;
 use loc_core::localizer::{Localizer, LocalizerConfig};
 use loc_core::map::TunnelMap;
 use loc_core::matching::{MatcherKind, RoughnessModel};
-use loc_core::scan::{Scan, ScanGeometry, SensorSetup};
+use loc_core::scan::{Scan, ScanGeometry, SensorSetup, SweepMotion};
 use nalgebra::Matrix3;
 use scan_input::EchoSelection;
 
@@ -110,6 +110,9 @@ pub struct LocCoreEstimator<'m> {
     /// The last odometry reading's whole increment (vehicle frame at its start): the rate a
     /// scan between readings is predicted at ([`GapTracker::lead`]).
     last_increment: Option<(f64, f64, f64)>,
+    /// The last reading's speed and yaw rate: the sweep's speed for a scan the localiser's
+    /// own track does not cover (as the firmware gives its odometry's rate).
+    last_rate: Option<SweepMotion>,
 }
 
 impl<'m> LocCoreEstimator<'m> {
@@ -124,6 +127,7 @@ impl<'m> LocCoreEstimator<'m> {
             last_reset: SimPose::default(),
             gaps: GapTracker::default(),
             last_increment: None,
+            last_rate: None,
         }
     }
 
@@ -170,6 +174,7 @@ impl Estimator for LocCoreEstimator<'_> {
         self.last_reset = pose;
         self.gaps.reset();
         self.last_increment = None;
+        self.last_rate = None;
         let (v, w) = ((sigma_m * sigma_m) as f32, (sigma_rad * sigma_rad) as f32);
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(v, v, w));
         let p = Pose2::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32);
@@ -186,6 +191,11 @@ impl Estimator for LocCoreEstimator<'_> {
         let (gap, fraction) = self.gaps.reading(s);
         self.coast(gap);
         self.last_increment = Some(s.delta);
+        self.last_rate = Some(SweepMotion {
+            v_x_mps: s.v_mps as f32,
+            v_y_mps: 0.0,
+            omega_radps: s.omega_radps as f32,
+        });
         self.predict_share(s.delta, fraction);
     }
 
@@ -207,6 +217,9 @@ impl Estimator for LocCoreEstimator<'_> {
         );
         self.scan
             .set_timing(scan.layout.timing(scan_stamp_us(scan.t_s)));
+        if let Some(rate) = self.last_rate {
+            self.localizer.hint_sweep_speed(rate);
+        }
         let status = match loaded {
             Ok(()) => EstimatorStatus::Localizer(self.localizer.update_scan(&mut self.scan)),
             Err(e) => EstimatorStatus::ScanUnusable(e),

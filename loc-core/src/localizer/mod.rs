@@ -297,8 +297,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// The vehicle's speed for the next scan's sweep as the integrator measures it (its
     /// odometry's rate, vehicle frame), for a scan the filter's own track does not reach
     /// back from: the first after [`Localizer::initialise`] (a start or a resume while
-    /// moving). Used by that scan only; later scans take the filter's track. Without it, the
-    /// first scan is not de-skewed.
+    /// moving), and every scan without a pose (relocalising). Used by the next scan only;
+    /// with a track, scans take the filter's. Without it those scans are not de-skewed.
     pub fn hint_sweep_speed(&mut self, motion: SweepMotion) {
         self.sweep_speed.hint(motion);
     }
@@ -332,21 +332,22 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         observer: &mut O,
     ) -> Status {
         let status = self.localise(scan, observer);
-        if let (Some(timing), Some(ekf)) = (scan.timing(), self.ekf.as_ref()) {
-            self.sweep_speed.record(timing, ekf.pose());
-        }
+        self.sweep_speed
+            .scanned(scan.timing().zip(self.ekf.as_ref().map(|ekf| ekf.pose())));
         status
     }
 
     /// Carries `scan`'s points to its last beam at the filter's speed over its recent
     /// track (see [`Localizer::update_scan`]).
+    /// Without a pose (relocalising) only the integrator's hint can say.
     fn deskew(&self, scan: &mut Scan) {
-        let (Some(ekf), Some(timing), true) =
-            (self.ekf.as_ref(), scan.timing(), self.config.deskew)
-        else {
+        let (Some(timing), true) = (scan.timing(), self.config.deskew) else {
             return;
         };
-        let motion = self.sweep_speed.motion(&timing, &ekf.pose());
+        let motion = match self.ekf.as_ref() {
+            Some(ekf) => self.sweep_speed.motion(&timing, &ekf.pose()),
+            None => self.sweep_speed.hint_only(),
+        };
         if let Some(m) = motion.filter(|m| m.turn_over_rad(scan.sweep_s()) <= MAX_SWEEP_TURN_RAD) {
             scan.deskew(&m);
         }

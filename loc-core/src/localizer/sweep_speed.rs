@@ -61,6 +61,20 @@ impl SweepSpeed {
         self.hint = Some(motion);
     }
 
+    /// After a scan: forgets the hint, and adds the filter's pose after the scan of
+    /// `timing` when there is one (see [`SweepSpeed::record`]).
+    pub fn scanned(&mut self, track: Option<(ScanTiming, Pose2)>) {
+        self.hint = None;
+        if let Some((timing, pose)) = track {
+            self.record(timing, pose);
+        }
+    }
+
+    /// The hint alone (no pose to take a track from: relocalising).
+    pub fn hint_only(&self) -> Option<SweepMotion> {
+        self.hint
+    }
+
     /// Adds the filter's pose after the scan of `timing`: the last, and the newer pose once
     /// the newer one is a baseline old (which becomes the older). Forgets the hint.
     pub fn record(&mut self, timing: ScanTiming, pose: Pose2) {
