@@ -317,9 +317,11 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     /// With [`LocalizerConfig::deskew`] and a scan that says when its beams were taken
     /// ([`Scan::timing`]), the scan's points are first carried to where they lie at that
     /// last beam ([`Scan::deskew`]), at the speed the filter moved at over its recent track
-    /// ([`SweepSpeed`]: from its pose after a scan 0.2–0.4 s back to its prediction now, over
-    /// the time between the scans' stamps; not on the first scan after
-    /// [`Localizer::initialise`], nor after a gap over 0.5 s).
+    /// ([`SweepSpeed`]: the velocity from its pose after the last scan to its prediction
+    /// now, the yaw rate from its pose after a scan 0.2–0.4 s back, over the time between
+    /// the scans' stamps). A scan the track does not reach (the first after
+    /// [`Localizer::initialise`], one after a gap over 0.5 s, any without a pose) takes the
+    /// integrator's [`Localizer::hint_sweep_speed`], or is not de-skewed without one.
     pub fn update_scan(&mut self, scan: &mut Scan) -> Status {
         self.update_scan_observed(scan, &mut ())
     }
@@ -338,8 +340,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     }
 
     /// Carries `scan`'s points to its last beam at the filter's speed over its recent
-    /// track (see [`Localizer::update_scan`]).
-    /// Without a pose (relocalising) only the integrator's hint can say.
+    /// track (see [`Localizer::update_scan`]); without a pose (relocalising) only the
+    /// integrator's hint can say.
     fn deskew(&self, scan: &mut Scan) {
         let (Some(timing), true) = (scan.timing(), self.config.deskew) else {
             return;

@@ -56,13 +56,13 @@ impl SweepSpeed {
 
     /// The vehicle's speed for the next scan as measured otherwise (the odometry's rate),
     /// for when the track does not reach back to an earlier scan: the first scan after a
-    /// start or a gap. Used for that scan only.
+    /// start or a gap, or a scan without a pose. Used for that scan only.
     pub fn hint(&mut self, motion: SweepMotion) {
         self.hint = Some(motion);
     }
 
     /// After a scan: forgets the hint, and adds the filter's pose after the scan of
-    /// `timing` when there is one (see [`SweepSpeed::record`]).
+    /// `timing` when there is one (the last, and the newer one once a baseline old).
     pub fn scanned(&mut self, track: Option<(ScanTiming, Pose2)>) {
         self.hint = None;
         if let Some((timing, pose)) = track {
@@ -77,7 +77,7 @@ impl SweepSpeed {
 
     /// Adds the filter's pose after the scan of `timing`: the last, and the newer pose once
     /// the newer one is a baseline old (which becomes the older). Forgets the hint.
-    pub fn record(&mut self, timing: ScanTiming, pose: Pose2) {
+    fn record(&mut self, timing: ScanTiming, pose: Pose2) {
         self.hint = None;
         self.last = Some((timing, pose));
         match self.newer {

@@ -13,7 +13,7 @@
 //!
 //! A scan loaded from a telegram also knows when its beams were taken ([`ScanTiming`]);
 //! [`Scan::deskew`] then places every echo where it lies at the scan's last beam, given the
-//! vehicle's motion over the sweep ([`SweepMotion`]; see [`sweep`]).
+//! vehicle's motion over the sweep ([`SweepMotion`], `scan/sweep.rs`).
 
 mod sweep;
 
