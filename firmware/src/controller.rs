@@ -251,8 +251,8 @@ impl<'m> Controller<'m> {
 
     /// The vehicle's speed by its odometry (`rate`, from the last two frames), for the
     /// sweep of the next scan when the localiser's own track does not reach back to an
-    /// earlier one (the first scan after a start or a reset): that scan is then carried over
-    /// the mirror's sweep too (21 ms at 25 Hz).
+    /// earlier one (the first scan after a start or a reset, a scan while relocalising):
+    /// that scan is then carried over the mirror's sweep too (21 ms at 25 Hz).
     pub fn hint_sweep_speed(&mut self, rate: &SweepMotion) {
         self.localizer.hint_sweep_speed(*rate);
     }

@@ -420,6 +420,13 @@ fn streamed_odometry_is_carried_to_each_scan() -> TestResult {
     check(
         worst_m < 1e-4,
         "a scan's increment is not the motion between the scans' times",
+    )?;
+    // The odometry's rate (a first scan's sweep speed): 3 m/s, from the frames' stamps.
+    let rate = input.rate().ok_or("no rate from two frames")?;
+    check(
+        loc_core::math::abs(rate.v_x_mps - 1000.0 * SPEED_M_PER_MS) < 1e-3
+            && rate.omega_radps == 0.0,
+        "the odometry's rate is not the motion between its last two frames",
     )
 }
 
