@@ -10,7 +10,7 @@ use loc_core::landmark::LandmarkModel;
 use loc_core::localizer::{Localizer, LocalizerConfig, Status};
 use loc_core::map::TunnelMap;
 use loc_core::matching::{match_scan, MatchConfig, MatchWorkspace, MatcherKind};
-use loc_core::scan::{Scan, SensorSetup, LMS511_MAX_BEAMS};
+use loc_core::scan::{Scan, ScanTiming, SensorSetup, SweepMotion, LMS511_MAX_BEAMS};
 use loc_core::strip::{strip_walls, PointLabel, StripConfig};
 use loc_core::testkit::{LandmarkLayout, ScanSimulator, TunnelSpec};
 use nalgebra::{Matrix3, Vector3};
@@ -116,6 +116,32 @@ proptest! {
                 loc.update_scan(&mut scan);
                 assert_sane(&loc);
             }
+        }
+    }
+
+    /// Whatever speed an integrator hints and whatever timing a telegram claims, the
+    /// de-skew never makes a point non-finite nor the state insane: a motion no vehicle
+    /// makes is refused and the scan is localised as taken.
+    #[test]
+    fn arbitrary_sweep_timing_and_speed_never_break_the_state(
+        hints in prop::collection::vec((any_f32(), any_f32(), any_f32()), 1..6),
+        stamps in prop::collection::vec(any::<u32>(), 1..6),
+        beam_period_s in prop_oneof![3 => Just(1.0f32 / 54_000.0), 1 => any_f32()],
+    ) {
+        let mut loc = localizer(MatcherKind::Hausdorff);
+        let mut sim = ScanSimulator::new(3);
+        let mut scan = Box::new(Scan::new());
+        for ((vx, vy, w), stamp_us) in hints.into_iter().zip(stamps) {
+            let pose = loc.pose().unwrap();
+            sim.simulate_scan(map(), &pose, &SensorSetup::default(), LMS511_MAX_BEAMS, &mut scan);
+            scan.set_timing(Some(ScanTiming { stamp_us, beam_period_s }));
+            loc.hint_sweep_speed(SweepMotion { v_x_mps: vx * 10.0, v_y_mps: vy, omega_radps: w * 5.0 });
+            loc.update_scan(&mut scan);
+            prop_assert!(scan.points().iter().all(|p| p.vehicle.x_m.is_finite() && p.vehicle.y_m.is_finite()));
+            if let Some(m) = scan.deskewed() {
+                prop_assert!(m.is_plausible(scan.sweep_s()), "{:?}", m);
+            }
+            assert_sane(&loc);
         }
     }
 

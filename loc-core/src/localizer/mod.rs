@@ -98,10 +98,6 @@ pub struct Localizer<'m, M: MapQuery> {
     sweep_speed: SweepSpeed,
 }
 
-/// Largest turn over one sweep that is believed, radians (a loader turns at most
-/// ≈ 1 rad/s, 0.02 rad in a 25 Hz sweep; a larger one is a broken prediction).
-const MAX_SWEEP_TURN_RAD: f32 = 0.2;
-
 impl<'m, M: MapQuery> Localizer<'m, M> {
     /// A localizer at `initial_pose` (vehicle in world) with covariance `initial_cov` of
     /// `(x_m, y_m, theta_rad)`.
@@ -350,7 +346,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             Some(ekf) => self.sweep_speed.motion(&timing, &ekf.pose()),
             None => self.sweep_speed.hint_only(),
         };
-        if let Some(m) = motion.filter(|m| m.turn_over_rad(scan.sweep_s()) <= MAX_SWEEP_TURN_RAD) {
+        if let Some(m) = motion {
+            // An implausible speed is refused by the scan (left as taken).
             scan.deskew(&m);
         }
     }

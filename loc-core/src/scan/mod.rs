@@ -17,7 +17,7 @@
 
 mod sweep;
 
-pub use sweep::{ScanTiming, SweepMotion};
+pub use sweep::{ScanTiming, SweepMotion, MAX_SWEEP_S, MAX_SWEEP_SPEED_MPS, MAX_SWEEP_TURN_RAD};
 
 use core::f32::consts::PI;
 
@@ -482,12 +482,14 @@ impl Scan {
     /// the scan's last beam, the vehicle moving by `motion` over the sweep: beam `i` was
     /// taken `(n − 1 − i) · beam_period_s` before it. The beams' own angle and range are
     /// kept as measured. Needs the scan's [`ScanTiming`]; does nothing (returns `false`)
-    /// without one, or when the scan was already carried.
+    /// without one, when the scan was already carried, or for a motion no vehicle makes
+    /// ([`SweepMotion::is_plausible`]: non-finite, over 30 m/s or 0.2 rad over the sweep,
+    /// or a sweep the timing makes negative or over 0.1 s).
     pub fn deskew(&mut self, motion: &SweepMotion) -> bool {
         let Some(timing) = self.timing else {
             return false;
         };
-        if self.deskewed.is_some() {
+        if self.deskewed.is_some() || !motion.is_plausible(self.sweep_s()) {
             return false;
         }
         let last = self.beams_received.saturating_sub(1);

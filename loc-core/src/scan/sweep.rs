@@ -45,6 +45,15 @@ pub struct SweepMotion {
     pub omega_radps: f32,
 }
 
+/// Longest sweep believed, seconds (the LMS5xx sweeps its 190° in 21 ms at 25 Hz, its
+/// slowest; a telegram whose frequencies claim more is not de-skewed).
+pub const MAX_SWEEP_S: f32 = 0.1;
+/// Fastest a vehicle is believed to move over a sweep, m/s (a loader drives ≤ 8 m/s).
+pub const MAX_SWEEP_SPEED_MPS: f32 = 30.0;
+/// Largest turn over one sweep that is believed, radians (a loader turns at most
+/// ≈ 1 rad/s, 0.02 rad in a 25 Hz sweep).
+pub const MAX_SWEEP_TURN_RAD: f32 = 0.2;
+
 /// Below this turn (radians) the series of `sin φ / φ` and `(1 − cos φ) / φ` are used.
 const SMALL_TURN_RAD: f32 = 1e-2;
 
@@ -112,6 +121,17 @@ impl SweepMotion {
     pub fn turn_over_rad(&self, sweep_s: f32) -> f32 {
         math::abs(self.omega_radps * sweep_s)
     }
+
+    /// Whether a vehicle can move so over a sweep of `sweep_s` seconds: every component
+    /// finite, the speed at most [`MAX_SWEEP_SPEED_MPS`], the turn at most
+    /// [`MAX_SWEEP_TURN_RAD`], and the sweep itself between 0 and [`MAX_SWEEP_S`] (anything
+    /// else is a broken prediction, hint or telegram, and carrying echoes by it would place
+    /// them confidently wrong).
+    pub fn is_plausible(&self, sweep_s: f32) -> bool {
+        (0.0..=MAX_SWEEP_S).contains(&sweep_s)
+            && math::hypot(self.v_x_mps, self.v_y_mps) <= MAX_SWEEP_SPEED_MPS
+            && self.turn_over_rad(sweep_s) <= MAX_SWEEP_TURN_RAD
+    }
 }
 
 #[cfg(test)]
@@ -171,6 +191,43 @@ mod tests {
         assert!(SweepMotion::from_motion(&m, -0.04).is_none());
         assert!(SweepMotion::from_motion(&m, f32::NAN).is_none());
         assert!(SweepMotion::from_motion(&Pose2::new(f32::INFINITY, 0.0, 0.0), 0.04).is_none());
+    }
+
+    #[test]
+    fn no_vehicle_moves_at_an_implausible_speed() {
+        let ok = SweepMotion {
+            v_x_mps: 8.0,
+            v_y_mps: 0.5,
+            omega_radps: 1.0,
+        };
+        assert!(ok.is_plausible(0.021));
+        for bad in [
+            SweepMotion {
+                v_x_mps: f32::NAN,
+                ..ok
+            },
+            SweepMotion {
+                v_y_mps: f32::INFINITY,
+                ..ok
+            },
+            SweepMotion {
+                omega_radps: f32::NAN,
+                ..ok
+            },
+            SweepMotion {
+                v_x_mps: 31.0,
+                ..ok
+            },
+            SweepMotion {
+                omega_radps: 20.0,
+                ..ok
+            },
+        ] {
+            assert!(!bad.is_plausible(0.021), "{bad:?}");
+        }
+        for sweep_s in [-0.01, 0.2, f32::NAN, f32::INFINITY] {
+            assert!(!ok.is_plausible(sweep_s), "{sweep_s}");
+        }
     }
 
     #[test]
