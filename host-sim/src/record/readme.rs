@@ -27,7 +27,9 @@ world frame of the map (x, y in metres; headings in radians, counter-clockwise, 
     -5 deg to +185 deg (sensor frame, 90 deg straight ahead), shot frequency {meas}00 Hz.
     Header: version 0, device number 1, serial {serial}, device status 01 00 on the first
     telegram then 00 00, telegram counter from 1, scan counter and time since start-up (us)
-    counted from power-up {power_up} s before the run, time block from 2026-01-01 00:00:00.
+    counted from power-up {power_up} s before the run (the scan's first shot, as the LMS5xx
+    stamps it: the sweep before the scan's time in the times file, which is its last
+    beam's), time block from 2026-01-01 00:00:00.
     {channels}; range in mm = value x scale factor (1; 2 in a scan with
     an echo beyond 65.534 m), 0 = no (further) echo. No RSSI channels (remission output
     off). Decode it with `sick-dump {scanner}` (lidar-driver).

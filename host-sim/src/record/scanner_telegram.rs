@@ -84,7 +84,9 @@ impl Lms511Telegrams {
     pub fn next_repr(&mut self, scan: &LidarScan) -> ScanRepr {
         let f = self.rate.frequency_hz();
         let since_power_up_s = POWER_UP_BEFORE_RUN_S + scan.t_s.max(0.0);
-        let startup_us = (since_power_up_s * 1e6).round() as u64;
+        // The LMS5xx stamps a scan at its first shot; `t_s` is its last beam's time.
+        let first_shot_s = since_power_up_s - scan.layout.sweep_s();
+        let startup_us = (first_shot_s * 1e6).round() as u64;
         // Counters and the µs clock are u32/u16 fields on the wire: they wrap.
         let startup_us_u32 = (startup_us % (1u64 << 32)) as u32;
         let period_us = (1e6 / f).round() as u32;

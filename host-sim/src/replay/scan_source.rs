@@ -381,12 +381,14 @@ impl ScanStream {
                     }
                 },
                 Pairing::None => {
-                    // Unwrap the u32 µs counter.
+                    // Unwrap the u32 µs counter. The stamp is the scan's first shot; the
+                    // scan's time (what its pose refers to) is its last beam, a sweep later.
                     if self.last_clock_us.is_some_and(|p| clock_us < p) {
                         self.wraps += 1;
                     }
                     self.last_clock_us = Some(clock_us);
-                    Some((self.wraps * (1u64 << 32) + u64::from(clock_us)) as f64 / 1e6)
+                    let stamp_s = (self.wraps * (1u64 << 32) + u64::from(clock_us)) as f64 / 1e6;
+                    Some(stamp_s + scan.layout.sweep_s())
                 }
             };
             let Some(t_s) = time else { continue };

@@ -124,6 +124,14 @@ impl BeamLayout {
         })
     }
 
+    /// Seconds from the first beam to the last (`(beams − 1)` beam periods; 0 without a
+    /// beam period). The LMS5xx stamps a scan at its first shot; its pose refers to its last
+    /// beam, this much later.
+    pub fn sweep_s(&self) -> f64 {
+        self.beam_period_s()
+            .map_or(0.0, |p| p * f64::from(self.beams.saturating_sub(1)))
+    }
+
     /// When the beams of a scan of this layout stamped `stamp_us` (the header's "time since
     /// start-up", µs on the scanner's clock) were taken; `None` without a beam period.
     pub fn timing(&self, stamp_us: u32) -> Option<ScanTiming> {
