@@ -38,6 +38,10 @@ TUNING_LENGTH_M = {"paper-10m": None, "tunnel-1km-200m": 60, "s-bend-400m": 30}
 
 # The peers' settings as committed (chosen by `compare.sh --tune`; README says why).
 CONFIGS = json.loads((HERE / "configs.json").read_text())
+# `--sweep`: the drives recorded with the scanner's sweep (each beam from where the vehicle
+# was when the mirror passed it), the core de-skewing, every peer de-skewed at the constant
+# velocity of its own last two estimates (peers.py); kept in their own work directory.
+SWEEP = []
 
 
 def log(msg):
@@ -60,7 +64,7 @@ def prepare(work, drive, args, seed, landmarks):
         extra = [] if landmarks == "scenario" else ["--landmarks", "none"]
         tmp = work / "recordings" / (name + ".partial")
         run(["rm", "-rf", str(tmp)])
-        run([BIN / "host-sim", "run", *args, *extra, "--seed", str(seed), "--record", str(tmp), "--quiet", "--json"])
+        run([BIN / "host-sim", "run", *args, *extra, *SWEEP, "--seed", str(seed), "--record", str(tmp), "--quiet", "--json"])
         tmp.rename(d)
     scans = d.parent / (name + ".scans.jsonl")
     if not scans.exists():
@@ -253,7 +257,8 @@ def tune(work, jobs):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--work", default=str(ROOT / "target" / "peers"))
+    ap.add_argument("--work", default=None, help="work directory (default target/peers, target/peers-sweep with --sweep)")
+    ap.add_argument("--sweep", action="store_true", help="the drives with the scanner's sweep, de-skewed")
     ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 2)))
     ap.add_argument("--quick", action="store_true", help="paper-10m seed 1 only")
     ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS, help="seeds to run (default 1 2 3)")
@@ -261,7 +266,9 @@ def main():
     ap.add_argument("--tune", action="store_true", help="grid over the peers' settings (tuning.json)")
     ap.add_argument("--json", help="also write the results here")
     a = ap.parse_args()
-    work = Path(a.work)
+    if a.sweep:
+        SWEEP.append("--sweep")
+    work = Path(a.work or ROOT / "target" / ("peers-sweep" if a.sweep else "peers"))
     work.mkdir(parents=True, exist_ok=True)
     if a.tune:
         tune(work, a.jobs)

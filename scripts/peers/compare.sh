@@ -6,6 +6,8 @@
 #   scripts/peers/compare.sh            the full comparison (about 2 h on 2 cores from nothing)
 #   scripts/peers/compare.sh --quick    paper-10m seed 1 only (about a minute)
 #   scripts/peers/compare.sh --tune     the grid behind configs.json (tuning.json)
+#   scripts/peers/compare.sh --sweep    the drives with the scanner's sweep, every localiser
+#                                       de-skewing (target/peers-sweep; with --quick too)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 venv="$root/target/peers/venv"

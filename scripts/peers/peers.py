@@ -41,7 +41,9 @@ def read_numeric(path, columns):
 
 
 def read_scans(jsonl_path, times_path):
-    """(t_s, ranges_m, angles_rad) per scan, in the sensor frame, invalid beams dropped.
+    """(t_s, ranges_m, angles_rad, before_s) per scan, in the sensor frame, invalid beams
+    dropped; `before_s`: how long before the scan's last beam (its time) each beam was
+    taken, from the telegram's scan frequency and step (the mirror's sweep).
 
     Times come from the recording's times file, paired by telegram counter as the replay
     pairs them."""
@@ -62,7 +64,9 @@ def read_scans(jsonl_path, times_path):
             a = start + step * np.arange(len(v))
             ok = (v > 0) & (v < 0xFFFF)
             r = (v * ch["scale_factor"] + ch["scale_offset"]) / 1000.0
-            scans.append((t, r[ok], a[ok]))
+            beam_s = ch["beam_step_deg"] / 360.0 / d["scan_frequency_hz"]
+            before = (len(v) - 1 - np.arange(len(v))) * beam_s
+            scans.append((t, r[ok], a[ok], before[ok]))
     return scans
 
 
@@ -242,16 +246,34 @@ def main():
     pose = tuple(float(v) for v in t0)
     peer = PEERS[a.peer](map_points(a.map, cfg.get("map_step_m", 0.005)), cfg)
 
+    # A scanner that sweeps (`lidar.sweep`): each point carried to the scan's last beam at
+    # the constant velocity of the peer's own last two estimates — KISS-ICP's own de-skew
+    # (its constant-velocity model), given to every peer.
+    sweep = bool(lid.get("sweep", False))
     cm, sm = math.cos(mount[2]), math.sin(mount[2])
     t_prev = 0.0
     rows = []
     started = time.perf_counter()
-    for k, (t, r, ang) in enumerate(scans):
+    for k, (t, r, ang, before) in enumerate(scans):
         pose = compose(pose, odo.between(t_prev, t))
-        t_prev = t
         keep = r <= max_range
         xs, ys = r[keep] * np.cos(ang[keep]), r[keep] * np.sin(ang[keep])
         pts = np.column_stack([mount[0] + cm * xs - sm * ys, mount[1] + sm * xs + cm * ys])
+        if sweep and len(rows) >= 2 and t > rows[-1][0] > rows[-2][0]:
+            (t1, p1, _), (t2, p2, _) = rows[-2], rows[-1]
+            dt = t2 - t1
+            c1, s1 = math.cos(p1[2]), math.sin(p1[2])
+            dx, dy = p2[0] - p1[0], p2[1] - p1[1]
+            vx, vy = (c1 * dx + s1 * dy) / dt, (-s1 * dx + c1 * dy) / dt
+            w = math.atan2(math.sin(p2[2] - p1[2]), math.cos(p2[2] - p1[2])) / dt
+            tau = before[keep]
+            phi = -w * tau
+            cp, sp = np.cos(phi), np.sin(phi)
+            pts = np.column_stack([
+                cp * pts[:, 0] - sp * pts[:, 1] - vx * tau,
+                sp * pts[:, 0] + cp * pts[:, 1] - vy * tau,
+            ])
+        t_prev = t
         t_start = time.perf_counter()
         T = peer.register(pts, pose_matrix(pose))
         us = (time.perf_counter() - t_start) * 1e6
