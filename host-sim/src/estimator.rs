@@ -107,12 +107,11 @@ pub struct LocCoreEstimator<'m> {
     echo: EchoSelection,
     last_reset: SimPose,
     gaps: GapTracker,
-    /// The last odometry reading's whole increment (vehicle frame at its start): the rate a
-    /// scan between readings is predicted at ([`GapTracker::lead`]).
-    last_increment: Option<(f64, f64, f64)>,
-    /// The last reading's speed and yaw rate: the sweep's speed for a scan the localiser's
-    /// own track does not cover (as the firmware gives its odometry's rate).
-    last_rate: Option<SweepMotion>,
+    /// The last odometry reading: its whole increment is the rate a scan between readings
+    /// is predicted at ([`GapTracker::lead`]); its speed and yaw rate the sweep's speed for
+    /// a scan the localiser's own track does not cover (as the firmware gives its
+    /// odometry's rate).
+    last_reading: Option<OdometrySample>,
 }
 
 impl<'m> LocCoreEstimator<'m> {
@@ -126,8 +125,7 @@ impl<'m> LocCoreEstimator<'m> {
             echo: scenario.localizer.echo.selection(),
             last_reset: SimPose::default(),
             gaps: GapTracker::default(),
-            last_increment: None,
-            last_rate: None,
+            last_reading: None,
         }
     }
 
@@ -173,8 +171,7 @@ impl Estimator for LocCoreEstimator<'_> {
     fn reset(&mut self, pose: SimPose, sigma_m: f64, sigma_rad: f64) {
         self.last_reset = pose;
         self.gaps.reset();
-        self.last_increment = None;
-        self.last_rate = None;
+        self.last_reading = None;
         let (v, w) = ((sigma_m * sigma_m) as f32, (sigma_rad * sigma_rad) as f32);
         let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(v, v, w));
         let p = Pose2::new(pose.x_m as f32, pose.y_m as f32, pose.theta_rad as f32);
@@ -190,12 +187,7 @@ impl Estimator for LocCoreEstimator<'_> {
     fn odometry(&mut self, s: &OdometrySample) {
         let (gap, fraction) = self.gaps.reading(s);
         self.coast(gap);
-        self.last_increment = Some(s.delta);
-        self.last_rate = Some(SweepMotion {
-            v_x_mps: s.v_mps as f32,
-            v_y_mps: 0.0,
-            omega_radps: s.omega_radps as f32,
-        });
+        self.last_reading = Some(*s);
         self.predict_share(s.delta, fraction);
     }
 
@@ -204,8 +196,8 @@ impl Estimator for LocCoreEstimator<'_> {
         self.coast(gap);
         // Up to the scan's own time at the last reading's rate (the next reading keeps the
         // rest of its interval).
-        if let (Some(fraction), Some(delta)) = (self.gaps.lead(scan.t_s), self.last_increment) {
-            self.predict_share(delta, fraction);
+        if let (Some(fraction), Some(r)) = (self.gaps.lead(scan.t_s), self.last_reading) {
+            self.predict_share(r.delta, fraction);
         }
         let loaded = scan_input::load_values(
             &scan.layout,
@@ -217,8 +209,12 @@ impl Estimator for LocCoreEstimator<'_> {
         );
         self.scan
             .set_timing(scan.layout.timing(scan_stamp_us(scan.t_s)));
-        if let Some(rate) = self.last_rate {
-            self.localizer.hint_sweep_speed(rate);
+        if let Some(r) = self.last_reading {
+            self.localizer.hint_sweep_speed(SweepMotion {
+                v_x_mps: r.v_mps as f32,
+                v_y_mps: 0.0,
+                omega_radps: r.omega_radps as f32,
+            });
         }
         let status = match loaded {
             Ok(()) => EstimatorStatus::Localizer(self.localizer.update_scan(&mut self.scan)),

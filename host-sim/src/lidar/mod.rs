@@ -169,13 +169,6 @@ impl Default for LidarSpec {
     }
 }
 
-impl LidarSpec {
-    /// Time between two beams of a scan, seconds: the mirror turns 360° per scan period.
-    pub fn beam_time_s(&self) -> f64 {
-        self.rate.step_deg() / 360.0 / self.rate.frequency_hz()
-    }
-}
-
 /// One scan as its telegram's distance channels carry it (simulated, or decoded from a
 /// recording).
 #[derive(Debug, Clone, PartialEq)]
@@ -322,8 +315,9 @@ impl Lms511 {
             ((vx + c * mx - s * my, vy + s * mx + c * my), vth + myaw)
         };
         let at_scan = sensor(vehicle_before(0.0));
-        let beam_time_s = self.spec.beam_time_s();
         let layout = self.spec.rate.layout();
+        // The mirror turns 360° per scan period: its telegrams' own beam period.
+        let beam_time_s = layout.beam_period_s().unwrap_or(0.0);
         let beams = usize::from(layout.beams);
         if let Some((field, _)) = &mut self.dust {
             field.advance(t_s, beams, self.spec.rate.step_deg());
@@ -472,7 +466,8 @@ mod tests {
             sweep: true,
             ..LidarSpec::default()
         };
-        assert!((spec.beam_time_s() * 1140.0 - 0.02111).abs() < 1e-5);
+        let beam_time_s = spec.rate.layout().beam_period_s().unwrap();
+        assert!((beam_time_s * 1140.0 - 0.02111).abs() < 1e-5);
         let driving = |lag_s: f64| (-3.0 * lag_s, 0.0, 0.0);
         let swept = Lms511::new(spec, 1).scan_swept(&grid, &[], driving, 0.0);
         let still = LidarSpec {
@@ -482,7 +477,7 @@ mod tests {
         let at_once = Lms511::new(still, 1).scan_swept(&grid, &[], driving, 0.0);
         let ahead_mm = |s: &LidarScan| f64::from(s.dist1()[570]) * f64::from(s.scale_factor);
         assert!((ahead_mm(&at_once) - 9000.0).abs() <= 1.0);
-        let lag_mm = 3.0 * 570.0 * spec.beam_time_s() * 1000.0;
+        let lag_mm = 3.0 * 570.0 * beam_time_s * 1000.0;
         assert!(
             (ahead_mm(&swept) - 9000.0 - lag_mm).abs() <= 1.0,
             "{} against {}",

@@ -294,7 +294,6 @@ pub fn load_scan(
             sensor,
             scan,
         )?;
-        scan.set_timing(layout.timing(telegram.header.time_since_startup_us));
     } else {
         let values = SelectedEchoes::new(
             echoes.map(|c| c.map(|c| c.values())),
@@ -309,8 +308,8 @@ pub fn load_scan(
             sensor,
             scan,
         )?;
-        scan.set_timing(layout.timing(telegram.header.time_since_startup_us));
     }
+    scan.set_timing(layout.timing(telegram.header.time_since_startup_us));
     Ok(layout)
 }
 

@@ -342,11 +342,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let (Some(timing), true) = (scan.timing(), self.config.deskew) else {
             return;
         };
-        let motion = match self.ekf.as_ref() {
-            Some(ekf) => self.sweep_speed.motion(&timing, &ekf.pose()),
-            None => self.sweep_speed.hint_only(),
-        };
-        if let Some(m) = motion {
+        let predicted = self.ekf.as_ref().map(|ekf| ekf.pose());
+        if let Some(m) = self.sweep_speed.motion(&timing, predicted.as_ref()) {
             // An implausible speed is refused by the scan (left as taken).
             scan.deskew(&m);
         }

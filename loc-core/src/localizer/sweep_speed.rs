@@ -70,11 +70,6 @@ impl SweepSpeed {
         }
     }
 
-    /// The hint alone (no pose to take a track from: relocalising).
-    pub fn hint_only(&self) -> Option<SweepMotion> {
-        self.hint
-    }
-
     /// Adds the filter's pose after the scan of `timing`: the last, and the newer pose once
     /// the newer one is a baseline old (which becomes the older). Forgets the hint.
     fn record(&mut self, timing: ScanTiming, pose: Pose2) {
@@ -91,13 +86,14 @@ impl SweepSpeed {
 
     /// The constant twist to `predicted`, the filter's pose at the scan of `timing`: the
     /// velocity from the last scan's pose, the yaw rate from the oldest pose of the track
-    /// within [`MAX_SWEEP_BASELINE_S`]; without a last pose that recent, the hint if any.
-    pub fn motion(&self, timing: &ScanTiming, predicted: &Pose2) -> Option<SweepMotion> {
+    /// within [`MAX_SWEEP_BASELINE_S`]; without a prediction (no pose: relocalising) or a
+    /// last pose that recent, the hint if any.
+    pub fn motion(&self, timing: &ScanTiming, predicted: Option<&Pose2>) -> Option<SweepMotion> {
         let since = |(t, pose): (ScanTiming, Pose2)| {
             let dt_s = timing.seconds_since(&t);
             (dt_s > 0.0 && dt_s <= MAX_SWEEP_BASELINE_S).then_some((dt_s, pose))
         };
-        let Some((dt_s, last)) = self.last.and_then(since) else {
+        let (Some(predicted), Some((dt_s, last))) = (predicted, self.last.and_then(since)) else {
             return self.hint;
         };
         let mut motion = SweepMotion::from_motion(&last.between(predicted), dt_s)?;
@@ -136,11 +132,11 @@ mod tests {
     #[test]
     fn the_speed_is_taken_over_a_baseline_of_the_track() {
         let mut speed = SweepSpeed::NEW;
-        assert!(speed.motion(&timing(0.0), &on_arc(0.0)).is_none());
+        assert!(speed.motion(&timing(0.0), Some(&on_arc(0.0))).is_none());
         let mut baselines = heapless::Vec::<f32, 40>::new();
         for k in 0..40 {
             let t = 0.04 * k as f32;
-            if let Some(m) = speed.motion(&timing(t), &on_arc(t)) {
+            if let Some(m) = speed.motion(&timing(t), Some(&on_arc(t))) {
                 assert!((m.v_x_mps - 2.0).abs() < 2e-3, "{t}: {m:?}");
                 assert!((m.omega_radps - 0.1).abs() < 2e-3, "{t}: {m:?}");
                 let base = [speed.older, speed.newer]
@@ -165,12 +161,12 @@ mod tests {
         let mut speed = SweepSpeed::NEW;
         speed.record(timing(0.0), on_arc(0.0));
         speed.record(timing(0.3), on_arc(0.3));
-        assert!(speed.motion(&timing(1.5), &on_arc(1.5)).is_none());
+        assert!(speed.motion(&timing(1.5), Some(&on_arc(1.5))).is_none());
         speed.record(timing(1.5), on_arc(1.5));
-        let m = speed.motion(&timing(1.54), &on_arc(1.54)).unwrap();
+        let m = speed.motion(&timing(1.54), Some(&on_arc(1.54))).unwrap();
         assert!((m.v_x_mps - 2.0).abs() < 2e-3, "{m:?}");
         speed.reset();
-        assert!(speed.motion(&timing(1.58), &on_arc(1.58)).is_none());
+        assert!(speed.motion(&timing(1.58), Some(&on_arc(1.58))).is_none());
     }
 
     #[test]
@@ -181,12 +177,12 @@ mod tests {
             ..SweepMotion::default()
         };
         speed.hint(hint);
-        assert_eq!(speed.motion(&timing(0.0), &on_arc(0.0)), Some(hint));
+        assert_eq!(speed.motion(&timing(0.0), Some(&on_arc(0.0))), Some(hint));
         speed.record(timing(0.0), on_arc(0.0));
         // One scan on, the track's own speed; the hint is gone.
-        let m = speed.motion(&timing(0.04), &on_arc(0.04)).unwrap();
+        let m = speed.motion(&timing(0.04), Some(&on_arc(0.04))).unwrap();
         assert!((m.v_x_mps - 2.0).abs() < 2e-3, "{m:?}");
         speed.reset();
-        assert!(speed.motion(&timing(0.08), &on_arc(0.08)).is_none());
+        assert!(speed.motion(&timing(0.08), Some(&on_arc(0.08))).is_none());
     }
 }
