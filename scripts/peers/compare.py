@@ -69,9 +69,11 @@ def prepare(work, drive, args, seed, landmarks):
     scans = d.parent / (name + ".scans.jsonl")
     if not scans.exists():
         scans.write_text(run([BIN / "sick-dump", "--format", "jsonl", str(d / "scanner.colab.bin")]))
+    # The map as host-sim now makes it, every run (a second or two): the core replays the
+    # recording's map.postcard, the peers read the JSON, and both must be today's.
     mp = d.parent / (name + ".map.json")
-    if not mp.exists():
-        run([BIN / "host-sim", "export-map", str(d / "scenario.toml"), "--format", "json", "--out", str(mp)])
+    run([BIN / "host-sim", "export-map", str(d / "scenario.toml"), "--format", "json", "--out", str(mp)])
+    run([BIN / "host-sim", "export-map", str(d / "scenario.toml"), "--out", str(d / "map.postcard")])
     # The same recording started at the true pose (for the "true start" rows).
     ip = d.parent / (name + ".initial_true.csv")
     if not ip.exists():
@@ -103,14 +105,18 @@ def score(rec, extra):
     }
 
 
-def config_key(peer, cfg, start):
-    h = hashlib.sha1(json.dumps([peer, cfg, start], sort_keys=True).encode()).hexdigest()[:10]
-    return f"{peer}-{start}-{h}"
+def config_key(peer, cfg, start, inputs=()):
+    """The name a peer's estimates are kept under: its settings, its start and the contents
+    of its inputs (a map or scans made anew by a changed host-sim are a new run)."""
+    h = hashlib.sha1(json.dumps([peer, cfg, start], sort_keys=True).encode())
+    for path in inputs:
+        h.update(Path(path).read_bytes())
+    return f"{peer}-{start}-{h.hexdigest()[:10]}"
 
 
 def peer_estimates(work, name, rec, scans, mp, peer, cfg, start):
-    """Runs one peer once (estimates kept by recording, peer, settings and start)."""
-    out = work / "estimates" / name / (config_key(peer, cfg, start) + ".csv")
+    """Runs one peer once (estimates kept by recording, peer, settings, start, map and scans)."""
+    out = work / "estimates" / name / (config_key(peer, cfg, start, (mp, scans)) + ".csv")
     if not out.exists():
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = out.with_suffix(".partial")
@@ -128,11 +134,11 @@ def peer_list():
     return [(label, c["peer"], c["settings"]) for label, c in CONFIGS.items()]
 
 
-def compare(work, jobs, drives, seeds):
+def compare(work, jobs, drives, seeds, landmarks=LANDMARKS):
     prepared = []
     # Seed by seed, so that an interrupted comparison has whole drives done (estimates are
     # kept; a rerun only runs what is missing).
-    for seed, (drive, args), lm in itertools.product(seeds, drives, LANDMARKS):
+    for seed, (drive, args), lm in itertools.product(seeds, drives, landmarks):
         prepared.append(prepare(work, drive, args, seed, lm))
     results = {}
     with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -263,6 +269,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="paper-10m seed 1 only")
     ap.add_argument("--seeds", type=int, nargs="+", default=SEEDS, help="seeds to run (default 1 2 3)")
     ap.add_argument("--drives", nargs="+", default=[d for d, _ in DRIVES], help="drives to run (default all)")
+    ap.add_argument("--landmarks", nargs="+", choices=LANDMARKS, default=LANDMARKS,
+                    help="with the scenario's landmarks, without, or both (default)")
     ap.add_argument("--tune", action="store_true", help="grid over the peers' settings (tuning.json)")
     ap.add_argument("--json", help="also write the results here")
     a = ap.parse_args()
@@ -275,7 +283,7 @@ def main():
         return
     chosen = [d for d in DRIVES if d[0] in a.drives]
     drives, seeds = (DRIVES[:1], [1]) if a.quick else (chosen, a.seeds)
-    names, results = compare(work, a.jobs, drives, seeds)
+    names, results = compare(work, a.jobs, drives, seeds, LANDMARKS if a.quick else a.landmarks)
     text, verdicts = table(names, results)
     print(text)
     if a.json:

@@ -309,16 +309,93 @@ impl Placement {
     }
 }
 
-/// Greedy polyline simplification: keeps a vertex only when skipping it would move some
-/// dropped point more than `tolerance_m` off the chord.
 /// Longest chord of a simplified wall, in points (1 km at the 0.1 m wall step).
 const MAX_CHORD_POINTS: usize = 10_000;
 
+/// Polyline simplification that leaves no bias: greedy, a vertex is kept only when skipping
+/// it would move some dropped point more than `tolerance_m` off the chord; then each chord
+/// is moved along its normal by the mean of its dropped points' deviation from it, and the
+/// vertices are where consecutive moved chords meet.
+///
+/// Chords between points of a curve all lie on its inner side: on an arc, by two thirds of
+/// the sagitta on average. A map of chords through points of the walls is thus 1.3 mm (at
+/// a 2 mm tolerance) towards the centre of every curve on both walls, and every localiser
+/// matched against it sat that far off, on the bend's inner side (measured on 200 m of
+/// `tunnel-1km` with noise-free scans: 1.07 mm mean lateral error, 0.06 mm with the chords
+/// moved). Moved, the chords straddle the curve: as many points on each side, none farther
+/// than the sagitta.
 fn simplify(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
-    let Some(&first) = pts.first() else {
-        return Vec::new();
+    let kept = chord_ends(pts, tolerance_m);
+    // Each chord as a moved line: a point on it and its direction.
+    let lines: Vec<((f64, f64), (f64, f64))> = kept
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (pts[w[0]], pts[w[1]]);
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let len = dx.hypot(dy);
+            if len < 1e-12 {
+                return (a, (dx, dy));
+            }
+            let n = (-dy / len, dx / len);
+            // Trapezoidal mean over the chord's length (its two ends lie on it).
+            let interior = &pts[w[0] + 1..w[1]];
+            let sum: f64 = interior
+                .iter()
+                .map(|p| (p.0 - a.0) * n.0 + (p.1 - a.1) * n.1)
+                .sum();
+            let mean = sum / (w[1] - w[0]) as f64;
+            ((a.0 + mean * n.0, a.1 + mean * n.1), (dx, dy))
+        })
+        .collect();
+    let Some((&first, &last)) = lines.first().zip(lines.last()) else {
+        return kept.iter().map(|&i| pts[i]).collect();
     };
-    let mut out = vec![first];
+    let mut out = Vec::with_capacity(kept.len());
+    out.push(first.0);
+    for (k, pair) in lines.windows(2).enumerate() {
+        let vertex = pts[kept[k + 1]];
+        // Nearly parallel chords (a straight): the vertex where both moved chords are.
+        let on_both = || {
+            let (a, b) = (project(vertex, pair[0]), project(vertex, pair[1]));
+            (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1))
+        };
+        // (Chords meeting at a tiny angle, where a straight runs into a curve, would meet
+        // far off: the vertex moves by at most the chords' own shifts.)
+        let near = |m: &(f64, f64)| (m.0 - vertex.0).hypot(m.1 - vertex.1) <= 4.0 * tolerance_m;
+        out.push(meet(pair[0], pair[1]).filter(near).unwrap_or_else(on_both));
+    }
+    out.push(project(pts[kept[kept.len() - 1]], last));
+    out
+}
+
+/// The foot of `v` on line `l` (a point and a direction).
+fn project(v: (f64, f64), l: ((f64, f64), (f64, f64))) -> (f64, f64) {
+    let (p, d) = l;
+    let t = ((v.0 - p.0) * d.0 + (v.1 - p.1) * d.1) / (d.0 * d.0 + d.1 * d.1).max(1e-24);
+    (p.0 + t * d.0, p.1 + t * d.1)
+}
+
+/// Where lines `l` and `m` (a point and a direction each) meet; `None` when they are within
+/// 1e-9 rad of parallel.
+fn meet(l: ((f64, f64), (f64, f64)), m: ((f64, f64), (f64, f64))) -> Option<(f64, f64)> {
+    let ((p, d), (q, e)) = (l, m);
+    let cross = d.0 * e.1 - d.1 * e.0;
+    let norms = d.0.hypot(d.1) * e.0.hypot(e.1);
+    if cross.abs() <= 1e-9 * norms {
+        return None;
+    }
+    let t = ((q.0 - p.0) * e.1 - (q.1 - p.1) * e.0) / cross;
+    Some((p.0 + t * d.0, p.1 + t * d.1))
+}
+
+/// The indices of `pts` the greedy simplification keeps: a vertex only where skipping it
+/// would move some dropped point more than `tolerance_m` off the chord (first and last
+/// always).
+fn chord_ends(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<usize> {
+    if pts.is_empty() {
+        return Vec::new();
+    }
+    let mut out = vec![0];
     let mut anchor = 0usize;
     let mut i = 1usize;
     while i < pts.len() {
@@ -348,15 +425,14 @@ fn simplify(pts: &[(f64, f64)], tolerance_m: f64) -> Vec<(f64, f64)> {
         if ok {
             i = candidate;
         } else {
-            out.push(pts[i]);
+            out.push(i);
             anchor = i;
             i += 1;
         }
     }
-    if let Some(&last) = pts.last() {
-        if out.last() != Some(&last) {
-            out.push(last);
-        }
+    let last = pts.len() - 1;
+    if out.last() != Some(&last) {
+        out.push(last);
     }
     out
 }
@@ -420,11 +496,39 @@ mod tests {
         assert!((hit.range_m - 2.35).abs() < 1e-9, "{hit:?}");
     }
 
+    /// Signed distance of `p` from the nearest segment of `poly` (positive to the left of
+    /// its direction).
+    fn signed_distance(poly: &[(f64, f64)], p: (f64, f64)) -> f64 {
+        poly.windows(2)
+            .map(|w| {
+                let (a, b) = (w[0], w[1]);
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                let len2 = dx * dx + dy * dy;
+                let t = (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0);
+                let (fx, fy) = (a.0 + t * dx, a.1 + t * dy);
+                let side = (dx * (p.1 - a.1) - dy * (p.0 - a.0)).signum();
+                side * (p.0 - fx).hypot(p.1 - fy)
+            })
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap()
+    }
+
     #[test]
-    fn curved_design_wall_simplifies_within_tolerance() {
+    fn a_curved_design_wall_is_simplified_within_tolerance_and_without_bias() {
+        // 100 m of a 200 m radius: each 2 mm chord spans about 1.8 m of wall.
         let w = world(0.0, 1.0 / 200.0, Omission::None);
-        let l = w.wall_polyline(WallSide::Right, false, 0.002);
-        assert!(l.len() > 5 && l.len() < 200, "{}", l.len());
+        for side in [WallSide::Left, WallSide::Right] {
+            let simple = w.wall_polyline(side, false, 0.002);
+            assert!(simple.len() > 40 && simple.len() < 70, "{}", simple.len());
+            // The wall itself, densely: the design line (σ 0), a point every 0.1 m.
+            let dense = w.wall_polyline(side, true, 0.0);
+            let d: Vec<f64> = dense.iter().map(|&p| signed_distance(&simple, p)).collect();
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            let worst = d.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            // Chords through points of the arc were 1.3 mm inside it on average.
+            assert!(mean.abs() < 0.05e-3, "{side:?}: mean {mean}");
+            assert!(worst <= 0.002, "{side:?}: worst {worst}");
+        }
     }
 
     #[test]
