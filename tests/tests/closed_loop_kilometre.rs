@@ -7,19 +7,28 @@ use host_sim::closed_loop::RunOptions;
 use host_sim::metrics::Metrics;
 use host_sim::scenario::named::named;
 use host_sim::scenario::overrides::Overrides;
+use host_sim::scenario::Scenario;
 use host_sim::session::{run_scenario, EstimatorChoice};
 
-fn kilometre_run(missing_every: Option<u32>) -> Metrics {
+/// `tunnel-1km` with P1 landmarks and `overrides` besides.
+fn kilometre(overrides: Overrides) -> Scenario {
     let mut s = named("tunnel-1km").expect("named scenario");
     Overrides {
         landmarks: Some("p1".into()),
+        ..overrides
+    }
+    .apply(&mut s)
+    .expect("valid overrides");
+    s
+}
+
+fn kilometre_run(missing_every: Option<u32>) -> Metrics {
+    let s = kilometre(Overrides {
         genes: Some("0.5,0.25,9.0".into()),
         missing_every,
         drive_length_m: Some(300.0),
         ..Overrides::default()
-    }
-    .apply(&mut s)
-    .expect("valid overrides");
+    });
     let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).expect("run");
     let m = log.metrics();
     assert!(
@@ -74,14 +83,10 @@ fn p1_every_9_m_holds_20_mm_without_drift_and_survives_missing_landmarks() {
 /// now straddle the curve (host-sim `world::simplify`): −0.05 mm.
 #[test]
 fn a_noise_free_drive_into_a_curve_has_no_lateral_bias() {
-    let mut s = named("tunnel-1km").expect("named scenario");
-    Overrides {
-        landmarks: Some("p1".into()),
+    let mut s = kilometre(Overrides {
         drive_length_m: Some(200.0),
         ..Overrides::default()
-    }
-    .apply(&mut s)
-    .expect("valid overrides");
+    });
     s.tunnel.roughness_sigma_m = 0.0;
     s.lidar.range_noise_m = 0.0;
     let log = run_scenario(&s, EstimatorChoice::Localizer, &RunOptions::default()).expect("run");
