@@ -59,6 +59,7 @@ use crate::matching::{
     match_scan_with_prealign, observe_wall_ends, select_match_points, MatchPoints, MatchResult,
     MatchWorkspace, PositionPrior, WallEndMemory,
 };
+
 use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, SweepMotion, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
@@ -154,6 +155,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn relocalise(&mut self) {
         self.relocaliser.restart();
         self.relocalising = true;
+        self.workspace.forget_landmark_offsets();
         self.integrity_monitor.distrust();
         self.doubtful_since_m = None;
         self.gate_failures = 0;
@@ -169,6 +171,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn forget_pose(&mut self) {
         self.ekf = None;
         self.relocalising = false;
+        self.workspace.forget_landmark_offsets();
         self.relocaliser.restart();
         self.integrity_monitor = IntegrityMonitor::NEW;
         self.last_strip = None;
@@ -204,6 +207,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             self.config.odometry.scale_sd,
         )?);
         self.status = Status::DeadReckoning;
+        self.workspace.forget_landmark_offsets();
         self.integrity_monitor = IntegrityMonitor::default();
         self.relocalising = false;
         self.doubtful_since_m = None;
@@ -448,6 +452,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let updated = ekf.update_with_match(&result, &cfg.update);
         self.last_wall_end_fixes = 0;
         if updated.is_ok() {
+            // What this scan says of its landmarks' offsets, for the matches to come.
+            self.workspace.learn_landmark_offsets(
+                &self.match_points,
+                ekf.pose(),
+                &ekf.covariance(),
+                &cfg.matching,
+            );
             // Where the walls end fixes what the walls alone leave open: the position along
             // them (after the match, so the footprints sit on walls placed by it).
             let prior = PositionPrior::from_covariance(&ekf.covariance());
@@ -712,6 +723,7 @@ pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::matching::{LandmarkOffsets, LANDMARK_OFFSET_SLOTS};
 
     #[test]
     fn memory_is_what_the_docs_say() {
@@ -719,9 +731,12 @@ mod tests {
         let localizer = core::mem::size_of::<Localizer<'static, TunnelMap>>();
         let scan = core::mem::size_of::<Scan>();
         let workspace = core::mem::size_of::<MatchWorkspace>();
-        // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB.
+        // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB and the landmark
+        // offsets (24 slots of 24 bytes and a count).
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
-        assert_eq!(workspace, 512 * 56 + 512 * 8 + 4);
+        let offsets = LANDMARK_OFFSET_SLOTS * 24 + 4;
+        assert_eq!(core::mem::size_of::<LandmarkOffsets>(), offsets);
+        assert_eq!(workspace, 512 * 56 + 512 * 8 + 4 + offsets);
     }
 }

@@ -2,13 +2,14 @@
 //! point-to-map distances with re-association and re-selection every iteration, and
 //! Levenberg damping on the Hausdorff cost (see the module docs of [`super`]).
 
-use super::association::{select_k_best, Association, AssociationSchedule, DistanceKey};
+use super::association::{select_k_best, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
+use super::landmark_offsets::OffsetPriors;
 use super::misfit::Misfits;
 use super::roughness::RoughWalls;
 use super::{
-    apply_step, conclude, out_of_work, step_size, KBest, MatchConfig, MatchError, Outcome, Steps,
-    MAX_MATCH_POINTS,
+    apply_step, conclude, out_of_work, step_size, KBest, MatchConfig, MatchError, MatchWorkspace,
+    Outcome, Steps, MAX_MATCH_POINTS,
 };
 use crate::geometry::{Point2, Pose2};
 use crate::map::MapQuery;
@@ -21,9 +22,14 @@ pub(super) fn run<M: MapQuery>(
     initial: Pose2,
     config: &MatchConfig,
     schedule: &mut AssociationSchedule,
-    assoc: &mut [Association],
-    keys: &mut [DistanceKey],
+    workspace: &mut MatchWorkspace,
 ) -> Result<Outcome, MatchError> {
+    let MatchWorkspace {
+        assoc,
+        keys,
+        landmark_offsets: offsets,
+        ..
+    } = workspace;
     let m = points.len().min(assoc.len());
     let assoc = assoc.get_mut(..m).unwrap_or_default();
     let k_fraction = if config.k_fraction.is_finite() {
@@ -128,10 +134,12 @@ pub(super) fn run<M: MapQuery>(
                             .iter()
                             .enumerate()
                             .filter(|&(i, a)| a.associated() && is_chosen(i));
+                        let mut priors = OffsetPriors::new(offsets);
                         for (_, a) in selected {
                             let r = a.residual_m();
                             let p = points.get(usize::from(a.point)).copied();
                             let p = p.unwrap_or(Point2::ORIGIN);
+                            priors.before_point(rw, &mut eq, a.landmark(), p, w_unit);
                             rw.add(&mut eq, p, a.world, t, a.normal, r, weight(r), w_unit);
                         }
                     }

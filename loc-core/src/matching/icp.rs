@@ -4,6 +4,7 @@
 
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
+use super::landmark_offsets::{LandmarkOffsets, OffsetPriors};
 use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, MatchConfig, MatchError, Outcome, Steps,
@@ -19,6 +20,7 @@ pub(super) fn run<M: MapQuery>(
     config: &MatchConfig,
     schedule: &mut AssociationSchedule,
     assoc: &mut [Association],
+    offsets: &LandmarkOffsets,
 ) -> Result<Outcome, MatchError> {
     let m = points.len().min(assoc.len());
     let assoc = assoc.get_mut(..m).unwrap_or_default();
@@ -51,9 +53,11 @@ pub(super) fn run<M: MapQuery>(
                 }
             }
             Some(rw) => {
+                let mut priors = OffsetPriors::new(offsets);
                 for a in inliers {
                     let p = points.get(usize::from(a.point)).copied();
                     let p = p.unwrap_or(Point2::ORIGIN);
+                    priors.before_point(rw, &mut eq, a.landmark(), p, 1.0);
                     rw.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
                 }
             }

@@ -76,6 +76,7 @@ mod guided;
 mod hausdorff;
 mod icp;
 mod information;
+mod landmark_offsets;
 mod misfit;
 mod points;
 mod prealign;
@@ -94,9 +95,12 @@ pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, Observability, ObservableSubspace,
 };
+pub use landmark_offsets::{
+    LandmarkOffset, LandmarkOffsets, EFFECTIVE_READINGS, LANDMARK_OFFSET_SLOTS,
+};
 pub use points::{select_match_points, MatchPoints, SelectionCounts, WALL_RUN_M};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
-pub use roughness::{RoughWalls, RoughnessModel};
+pub use roughness::{OffsetEstimate, RoughWalls, RoughnessModel};
 pub use wall_end::{
     observe_wall_ends, WallEndConfig, WallEndFix, WallEndMemory, MAX_WALL_END_FIXES,
 };
@@ -393,12 +397,15 @@ impl fmt::Display for MatchError {
 /// Scratch memory of one match (32 KiB: 512 associations of 56 bytes, 512 selection keys
 /// and the work count): keep one, in the [`crate::localizer`] or a static, rather than on a small stack.
 /// It also counts the work of the matches run with it (units of [`MatchConfig::max_work`],
-/// failed matches included) since [`MatchWorkspace::reset_work`].
+/// failed matches included) since [`MatchWorkspace::reset_work`], and holds what its
+/// owner has learnt of the landmarks' offsets ([`LandmarkOffsets`]: every match run with it
+/// takes them; empty unless [`MatchWorkspace::learn_landmark_offsets`] is called).
 #[derive(Debug, Clone)]
 pub struct MatchWorkspace {
     assoc: [Association; MAX_MATCH_POINTS],
     keys: [DistanceKey; MAX_MATCH_POINTS],
     work: u32,
+    landmark_offsets: LandmarkOffsets,
 }
 
 impl Default for MatchWorkspace {
@@ -423,6 +430,7 @@ impl MatchWorkspace {
             }; MAX_MATCH_POINTS],
             keys: [(0.0, 0); MAX_MATCH_POINTS],
             work: 0,
+            landmark_offsets: LandmarkOffsets::NEW,
         }
     }
 
@@ -434,6 +442,32 @@ impl MatchWorkspace {
     /// Starts counting the work again from zero.
     pub fn reset_work(&mut self) {
         self.work = 0;
+    }
+
+    /// What has been learnt of the landmarks' offsets.
+    pub fn landmark_offsets(&self) -> &LandmarkOffsets {
+        &self.landmark_offsets
+    }
+
+    /// Reads the landmarks' offsets from the last match run with this workspace, on
+    /// `points` (the points it matched, vehicle frame), at the updated `pose` and its
+    /// `covariance` (world frame): see [`LandmarkOffsets::observe`].
+    pub fn learn_landmark_offsets(
+        &mut self,
+        points: &[Point2],
+        pose: Pose2,
+        covariance: &Matrix3<f32>,
+        config: &MatchConfig,
+    ) {
+        let assoc = self.assoc.get(..points.len()).unwrap_or_default();
+        self.landmark_offsets
+            .observe(assoc, points, pose, covariance, config);
+    }
+
+    /// Forgets the landmarks' offsets (a new pose: readings taken at a wrong one would
+    /// mislead).
+    pub fn forget_landmark_offsets(&mut self) {
+        self.landmark_offsets.clear();
     }
 }
 
@@ -465,15 +499,9 @@ pub fn match_scan<M: MapQuery>(
     }
     let mut schedule = AssociationSchedule::new();
     let outcome = match config.matcher {
-        MatcherKind::Hausdorff => hausdorff::run(
-            map,
-            points,
-            initial,
-            config,
-            &mut schedule,
-            &mut workspace.assoc,
-            &mut workspace.keys,
-        ),
+        MatcherKind::Hausdorff => {
+            hausdorff::run(map, points, initial, config, &mut schedule, workspace)
+        }
         MatcherKind::Icp => icp::run(
             map,
             points,
@@ -481,6 +509,7 @@ pub fn match_scan<M: MapQuery>(
             config,
             &mut schedule,
             &mut workspace.assoc,
+            &workspace.landmark_offsets,
         ),
     };
     workspace.work = workspace.work.saturating_add(schedule.work());

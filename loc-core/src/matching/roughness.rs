@@ -30,7 +30,7 @@
 //! patches binned in the vehicle frame, whose bins moved across the walls as the vehicle
 //! drove: the S-bend's position RMS fell by 5–9 % (measured 2026-12-03, README).
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::information::NormalEquations;
 use crate::geometry::Point2;
@@ -133,7 +133,7 @@ struct WallFilters {
     unit: OffsetFilter,
 }
 
-/// The rough walls of one accumulation: both walls' offset filters (fixed memory, 104
+/// The rough walls of one accumulation: both walls' offset filters (fixed memory, 108
 /// bytes, on the caller's stack).
 #[derive(Debug, Clone)]
 pub struct RoughWalls {
@@ -144,6 +144,8 @@ pub struct RoughWalls {
     inv_correlation: f32,
     /// The offset's stationary variance, units of `σ_r²` (`1/λ`).
     prior: f32,
+    /// `σ_r²`, m²: the unit of the filters' variances.
+    range_var_m2: f32,
 }
 
 impl RoughWalls {
@@ -162,7 +164,40 @@ impl RoughWalls {
             sin_cos: crate::math::sin_cos(theta_rad),
             inv_correlation: 1.0 / model.correlation_m,
             prior,
+            range_var_m2: range_sigma_m * range_sigma_m,
         })
+    }
+
+    /// Index into `walls` of vehicle-frame point `p`'s wall: left (`y ≥ 0`), then right.
+    #[inline]
+    fn wall_index(p: Point2) -> usize {
+        usize::from(p.y_m < 0.0)
+    }
+
+    /// The wall of vehicle-frame point `p` and its normal in the world (the vehicle's left
+    /// or right axis: outward, into the rock).
+    #[inline]
+    fn wall_of(&mut self, p: Point2) -> (Option<&mut WallFilters>, Point2) {
+        let (s, c) = self.sin_cos;
+        let m = if p.y_m >= 0.0 {
+            Point2::new(-s, c)
+        } else {
+            Point2::new(s, -c)
+        };
+        (self.walls.get_mut(Self::wall_index(p)), m)
+    }
+
+    /// Moves `wall`'s filters to abscissa `x_m` (vehicle frame, metres).
+    #[inline]
+    fn advance(wall: &mut WallFilters, x_m: f32, inv_correlation: f32, prior: f32) {
+        let rho = if wall.last_x_m.is_nan() {
+            0.0
+        } else {
+            crate::math::exp(-crate::math::abs(x_m - wall.last_x_m) * inv_correlation)
+        };
+        wall.last_x_m = x_m;
+        wall.weighted.advance(rho, prior);
+        wall.unit.advance(rho, prior);
     }
 
     /// Adds one residual to `eq`, whitened of its wall's offset: vehicle-frame point `p`
@@ -185,27 +220,13 @@ impl RoughWalls {
     ) {
         let j = NormalEquations::jacobian(q, t, n);
         eq.count_residual(r);
-        let left = p.y_m >= 0.0;
-        // The wall's normal in the world: the vehicle's left (or right) axis.
-        let (s, c) = self.sin_cos;
-        let m = if left {
-            Point2::new(-s, c)
-        } else {
-            Point2::new(s, -c)
-        };
-        let a = n.dot(m);
         let omega = if w_unit > 0.0 { w / w_unit } else { 1.0 };
-        let Some(wall) = self.walls.get_mut(usize::from(!left)) else {
+        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
+        let (Some(wall), m) = self.wall_of(p) else {
             return;
         };
-        let rho = if wall.last_x_m.is_nan() {
-            0.0
-        } else {
-            crate::math::exp(-crate::math::abs(p.x_m - wall.last_x_m) * self.inv_correlation)
-        };
-        wall.last_x_m = p.x_m;
-        wall.weighted.advance(rho, self.prior);
-        wall.unit.advance(rho, self.prior);
+        let a = n.dot(m);
+        Self::advance(wall, p.x_m, inv_correlation, prior);
         // A point without weight says nothing to the step (the estimate passes it by).
         if omega > 0.0 {
             let (e_j, e_r, inv_s) = wall.weighted.take(a, j, r, 1.0 / omega);
@@ -215,6 +236,87 @@ impl RoughWalls {
         }
         let (e_j, _, inv_s) = wall.unit.take(a, j, r, 1.0);
         eq.information_points += e_j * e_j.transpose() * inv_s;
+    }
+
+    /// Adds what is known beforehand of the wall's offset at vehicle-frame point `p` (a
+    /// landmark's first point): `offset_m` outward, variance `variance_m2` (learnt on
+    /// earlier scans: [`super::LandmarkOffsets`]).
+    /// It is one more measurement of the offset there: through the filter it corrects the
+    /// residuals of the points after it by what it says of the offset, and takes its share
+    /// of the normal equations (`w_unit` as in [`RoughWalls::add`]). Not a residual: the
+    /// point count is left alone.
+    pub fn add_known_offset(
+        &mut self,
+        eq: &mut NormalEquations,
+        p: Point2,
+        offset_m: f32,
+        variance_m2: f32,
+        w_unit: f32,
+    ) {
+        let noise = variance_m2 / self.range_var_m2;
+        if !(noise.is_finite() && noise > 0.0 && offset_m.is_finite()) {
+            return;
+        }
+        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
+        let (Some(wall), _) = self.wall_of(p) else {
+            return;
+        };
+        Self::advance(wall, p.x_m, inv_correlation, prior);
+        // The offset itself is measured (`a = 1`); the pose does not enter (`J = 0`).
+        let zero = Vector3::zeros();
+        let (e_j, e_r, inv_s) = wall.weighted.take(1.0, zero, offset_m, noise);
+        let k = w_unit * inv_s;
+        eq.weighted += e_j * e_j.transpose() * k;
+        eq.gradient += e_j * (k * e_r);
+        let (e_j, _, inv_s) = wall.unit.take(1.0, zero, offset_m, noise);
+        eq.information_points += e_j * e_j.transpose() * inv_s;
+    }
+
+    /// What the points added so far say of the offset of vehicle-frame point `p`'s wall at
+    /// `p`'s abscissa (the points' correlation with it taken into account: the filter is
+    /// moved there, as the next point there would move it).
+    pub fn offset_at(&mut self, p: Point2) -> OffsetEstimate {
+        let (inv_correlation, prior, range_var_m2) =
+            (self.inv_correlation, self.prior, self.range_var_m2);
+        let (Some(wall), _) = self.wall_of(p) else {
+            return OffsetEstimate::UNKNOWN;
+        };
+        Self::advance(wall, p.x_m, inv_correlation, prior);
+        let f = &wall.unit;
+        OffsetEstimate {
+            offset_m: f.m_r,
+            jacobian: f.m_j,
+            variance_m2: f.p * range_var_m2,
+        }
+    }
+}
+
+/// A wall's offset as the points of one accumulation estimate it: `offset_m − jacobian·δ`
+/// for a pose correction `δ` (world `(x_m, y_m, theta_rad)`) from the pose the residuals
+/// were taken at, with variance `variance_m2` at a known pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OffsetEstimate {
+    /// Outward offset at the pose the residuals were taken at, metres.
+    pub offset_m: f32,
+    /// How the estimate moves with the pose (m/m, m/rad).
+    pub jacobian: Vector3<f32>,
+    /// Its variance were the pose known, m².
+    pub variance_m2: f32,
+}
+
+impl OffsetEstimate {
+    /// Nothing known.
+    pub const UNKNOWN: Self = Self {
+        offset_m: 0.0,
+        jacobian: Vector3::new(0.0, 0.0, 0.0),
+        variance_m2: f32::INFINITY,
+    };
+
+    /// The variance the pose adds, known to `covariance` (world `(x_m, y_m, theta_rad)`),
+    /// m²: the residuals were taken at a pose that is itself uncertain, and the estimate
+    /// moves with it.
+    pub fn pose_variance_m2(&self, covariance: &Matrix3<f32>) -> f32 {
+        (self.jacobian.transpose() * covariance * self.jacobian).x
     }
 }
 
@@ -242,8 +344,8 @@ mod tests {
     }
 
     #[test]
-    fn the_walls_filters_take_104_bytes() {
-        assert_eq!(core::mem::size_of::<RoughWalls>(), 104);
+    fn the_walls_filters_take_108_bytes() {
+        assert_eq!(core::mem::size_of::<RoughWalls>(), 108);
     }
 
     #[test]

@@ -408,3 +408,87 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
     }
     assert!(sum_m / 8.0 < 0.0045, "mean along error {} m", sum_m / 8.0);
 }
+
+/// The test tunnel with every landmark mounted `offset_m` further out (into the rock; negative:
+/// standing off the wall on brackets) than the map says.
+fn tunnel_with_landmarks_set_out(offset_m: f32) -> BruteMap {
+    let mut world = BruteMap::tunnel(true);
+    for (seg, k) in world.segs.iter_mut() {
+        if let FeatureKind::Landmark { .. } = k {
+            // Outward: +y on the left wall (y = 2.5), −y on the right.
+            let dy = if seg.a.y_m > 0.0 { offset_m } else { -offset_m };
+            let shift = |p: Point2| Point2::new(p.x_m, p.y_m + dy);
+            *seg = Segment::new(shift(seg.a), shift(seg.b));
+        }
+    }
+    world
+}
+
+#[test]
+fn known_landmark_offsets_keep_the_match_from_drawing_along() {
+    // Every landmark standing 15 mm off the wall, unlike the map; the scanner faces down the
+    // tunnel and sees the landmarks ahead on their near flanks only, which a landmark set
+    // off the wall moves along the tunnel.
+    let map = BruteMap::tunnel(true);
+    let world = tunnel_with_landmarks_set_out(-0.015);
+    let truth = Pose2::new(19.0, 0.2, 0.01);
+    let guess = Pose2::new(19.01, 0.21, 0.011);
+    let cfg = MatchConfig {
+        roughness: RoughnessModel {
+            sigma_m: 0.01,
+            correlation_m: 1.0,
+        },
+        ..MatchConfig::default()
+    };
+    let mean_along_m = |workspace: &mut MatchWorkspace| {
+        let mut sum_m = 0.0f32;
+        for seed in 0..8 {
+            let scan = world.scan(truth, 0.01, seed);
+            let mut labels = [PointLabel::Outlier; 1141];
+            strip_walls(&scan, &StripConfig::default(), &mut labels);
+            let mut pts = MatchPoints::new();
+            select_match_points(&scan, &labels, 100, 64, &mut pts);
+            let r = match_scan(&map, &pts, guess, &cfg, workspace).unwrap();
+            sum_m += r.pose.x_m - truth.x_m;
+        }
+        sum_m / 8.0
+    };
+    let unknown_m = mean_along_m(&mut MatchWorkspace::new());
+    assert!(unknown_m.abs() > 0.008, "mean along error {unknown_m} m");
+
+    // Learnt from scans at the truth: the landmark abreast (id 3, 1.6 m ahead on the right
+    // wall, both flanks in view) is read at its true offset.
+    let mut workspace = MatchWorkspace::new();
+    let known = Matrix3::from_diagonal(&Vector3::new(1e-8, 1e-8, 1e-10));
+    for seed in 0..8 {
+        let scan = world.scan(truth, 0.01, 100 + seed);
+        let mut labels = [PointLabel::Outlier; 1141];
+        strip_walls(&scan, &StripConfig::default(), &mut labels);
+        let mut pts = MatchPoints::new();
+        select_match_points(&scan, &labels, 100, 64, &mut pts);
+        match_scan(&map, &pts, truth, &cfg, &mut workspace).unwrap();
+        workspace.learn_landmark_offsets(&pts, truth, &known, &cfg);
+    }
+    let (_, abreast) = workspace.landmark_offsets().find(3).unwrap();
+    assert!(
+        (abreast.offset_m() + 0.015).abs() < 0.004,
+        "learnt {} m",
+        abreast.offset_m()
+    );
+
+    // Every landmark's offset known: most of the along error goes.
+    let mut workspace = MatchWorkspace::new();
+    let known = OffsetEstimate {
+        offset_m: -0.015,
+        jacobian: Vector3::zeros(),
+        variance_m2: 1.0e-6,
+    };
+    for id in 0..14 {
+        workspace.landmark_offsets.learn(id, &known, 0.0);
+    }
+    let known_m = mean_along_m(&mut workspace);
+    assert!(
+        known_m.abs() < unknown_m.abs() / 4.0,
+        "mean along error {known_m} m, {unknown_m} m without the offsets"
+    );
+}
