@@ -234,7 +234,6 @@ impl LandmarkOffsets {
             config.association_gate_m
         };
         let at_pose = PointsAtPose::new(pose, points, limit_m);
-        let mut eq = NormalEquations::default();
         // The landmark being read: its index, points so far and last point.
         let mut run: Option<(u16, u16, Point2)> = None;
         let mut read = |walls: &mut RoughWalls, run: Option<(u16, u16, Point2)>| {
@@ -252,16 +251,7 @@ impl LandmarkOffsets {
                 let n = run.map_or(0, |(_, n, _)| n);
                 run = Some((id, n.saturating_add(1), p));
             }
-            walls.add(
-                &mut eq,
-                p,
-                q,
-                at_pose.t,
-                paired.normal,
-                paired.residual_m(),
-                1.0,
-                1.0,
-            );
+            walls.track(p, q, at_pose.t, paired.normal, paired.residual_m());
         }
         read(&mut walls, run.take());
     }
@@ -313,12 +303,18 @@ pub(crate) struct OffsetPriors<'a> {
     offsets: &'a LandmarkOffsets,
     /// Slots given already in this accumulation.
     given: u32,
+    /// The landmark of the last point (its points come in runs: looked up once a run).
+    last: Option<u16>,
 }
 
 impl<'a> OffsetPriors<'a> {
     /// For one accumulation of the normal equations.
     pub(crate) fn new(offsets: &'a LandmarkOffsets) -> Self {
-        Self { offsets, given: 0 }
+        Self {
+            offsets,
+            given: 0,
+            last: None,
+        }
     }
 
     /// Call before adding point `p` (vehicle frame) paired with `landmark` (none: a wall)
@@ -332,6 +328,10 @@ impl<'a> OffsetPriors<'a> {
         p: Point2,
         w_unit: f32,
     ) {
+        if landmark == self.last {
+            return;
+        }
+        self.last = landmark;
         let Some((slot, known)) = landmark
             .and_then(|id| self.offsets.find(id))
             .filter(|(_, known)| !known.inconsistent)

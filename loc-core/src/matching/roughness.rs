@@ -238,6 +238,20 @@ impl RoughWalls {
         eq.information_points += e_j * e_j.transpose() * inv_s;
     }
 
+    /// Takes one residual as [`RoughWalls::add`] does at full weight, for what the filters
+    /// say of the walls' offsets ([`RoughWalls::offset_at`]) only: nothing is added to any
+    /// normal equations (reading landmark offsets after a match, at a third of the cost).
+    pub fn track(&mut self, p: Point2, q: Point2, t: Point2, n: Point2, r: f32) {
+        let j = NormalEquations::jacobian(q, t, n);
+        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
+        let (Some(wall), m) = self.wall_of(p) else {
+            return;
+        };
+        let a = n.dot(m);
+        Self::advance(wall, p.x_m, inv_correlation, prior);
+        let _ = wall.unit.take(a, j, r, 1.0);
+    }
+
     /// Adds what is known beforehand of the wall's offset at vehicle-frame point `p` (a
     /// landmark's first point): `offset_m` outward, variance `variance_m2` (learnt on
     /// earlier scans: [`super::LandmarkOffsets`]).

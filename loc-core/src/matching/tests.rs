@@ -392,11 +392,7 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
     };
     let mut sum_m = 0.0f32;
     for seed in 0..8 {
-        let scan = world.scan(truth, 0.01, seed);
-        let mut labels = [PointLabel::Outlier; 1141];
-        strip_walls(&scan, &StripConfig::default(), &mut labels);
-        let mut pts = MatchPoints::new();
-        select_match_points(&scan, &labels, 100, 512, &mut pts);
+        let pts = selected_points(&world, truth, seed, 512);
         let r = match_scan(&map, &pts, guess, &cfg, &mut MatchWorkspace::new()).unwrap();
         let along_m = r.pose.x_m - truth.x_m;
         let sd_m = r.covariance.m11.sqrt();
@@ -407,6 +403,17 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
         sum_m += along_m;
     }
     assert!(sum_m / 8.0 < 0.0045, "mean along error {} m", sum_m / 8.0);
+}
+
+/// What a localiser matches of `world`'s scan at `truth` (1 cm range noise, `seed`):
+/// stripped, then 100 wall points and up to `landmark_points` landmark points.
+fn selected_points(world: &BruteMap, truth: Pose2, seed: u64, landmark_points: u16) -> MatchPoints {
+    let scan = world.scan(truth, 0.01, seed);
+    let mut labels = [PointLabel::Outlier; 1141];
+    strip_walls(&scan, &StripConfig::default(), &mut labels);
+    let mut pts = MatchPoints::new();
+    select_match_points(&scan, &labels, 100, landmark_points, &mut pts);
+    pts
 }
 
 /// The test tunnel with every landmark mounted `offset_m` further out (into the rock; negative:
@@ -443,11 +450,7 @@ fn known_landmark_offsets_keep_the_match_from_drawing_along() {
     let mean_along_m = |workspace: &mut MatchWorkspace| {
         let mut sum_m = 0.0f32;
         for seed in 0..8 {
-            let scan = world.scan(truth, 0.01, seed);
-            let mut labels = [PointLabel::Outlier; 1141];
-            strip_walls(&scan, &StripConfig::default(), &mut labels);
-            let mut pts = MatchPoints::new();
-            select_match_points(&scan, &labels, 100, 64, &mut pts);
+            let pts = selected_points(&world, truth, seed, 64);
             let r = match_scan(&map, &pts, guess, &cfg, workspace).unwrap();
             sum_m += r.pose.x_m - truth.x_m;
         }
@@ -461,11 +464,7 @@ fn known_landmark_offsets_keep_the_match_from_drawing_along() {
     let mut workspace = MatchWorkspace::new();
     let known = Matrix3::from_diagonal(&Vector3::new(1e-8, 1e-8, 1e-10));
     for seed in 0..8 {
-        let scan = world.scan(truth, 0.01, 100 + seed);
-        let mut labels = [PointLabel::Outlier; 1141];
-        strip_walls(&scan, &StripConfig::default(), &mut labels);
-        let mut pts = MatchPoints::new();
-        select_match_points(&scan, &labels, 100, 64, &mut pts);
+        let pts = selected_points(&world, truth, 100 + seed, 64);
         match_scan(&map, &pts, truth, &cfg, &mut workspace).unwrap();
         workspace.learn_landmark_offsets(&pts, truth, &known, &cfg);
     }
