@@ -732,10 +732,10 @@ mod tests {
         let scan = core::mem::size_of::<Scan>();
         let workspace = core::mem::size_of::<MatchWorkspace>();
         // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB and the landmark
-        // offsets (24 slots of 20 bytes and a count).
+        // offsets (24 slots of 20 bytes and two counts).
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
-        let offsets = LANDMARK_OFFSET_SLOTS * 20 + 4;
+        let offsets = LANDMARK_OFFSET_SLOTS * 20 + 8;
         assert_eq!(core::mem::size_of::<LandmarkOffsets>(), offsets);
         assert_eq!(workspace, 512 * 56 + 512 * 8 + 4 + offsets);
     }

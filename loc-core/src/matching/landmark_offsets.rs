@@ -63,6 +63,11 @@ pub const EFFECTIVE_READINGS: f32 = 16.0;
 /// but for an offset (see [`LandmarkOffset::inconsistent`]).
 pub const CONSISTENT_SIGMAS: f32 = 3.0;
 
+/// Landmark offsets are read from one scan in this many: consecutive scans' readings share
+/// most of their errors, and a reading costs a pass over the matched points (40 k
+/// instructions on the Cortex-M4F when every scan was read).
+pub const READ_EVERY_SCANS: u32 = 2;
+
 /// Fewest points on a landmark for its offset to be read from a scan.
 const MIN_POINTS: u16 = 3;
 
@@ -109,6 +114,8 @@ impl LandmarkOffset {
 pub struct LandmarkOffsets {
     slots: [Option<LandmarkOffset>; LANDMARK_OFFSET_SLOTS],
     readings: u32,
+    /// Scans offered to [`LandmarkOffsets::observe`].
+    scans: u32,
 }
 
 impl Default for LandmarkOffsets {
@@ -122,6 +129,7 @@ impl LandmarkOffsets {
     pub const NEW: Self = Self {
         slots: [None; LANDMARK_OFFSET_SLOTS],
         readings: 0,
+        scans: 0,
     };
 
     /// Forgets everything (a new pose: readings taken at a wrong one would mislead).
@@ -209,9 +217,7 @@ impl LandmarkOffsets {
     /// explains ([`MatchConfig::explained_distance_m`]) run through the rough-wall filter
     /// in scan order, and at each landmark's last point (at least [`MIN_POINTS`] on it)
     /// the filter's estimate of the offset there — the landmark's points and the wall
-    /// before them — is a reading. (Fused with the wall after them, from a reverse pass,
-    /// the readings were worse: 6 % on the tunnel, 4 % on the S-bend; the landmark is
-    /// rigid, the wall beside it is not.)
+    /// before them — is a reading. Only every [`READ_EVERY_SCANS`]-th scan offered is read.
     pub fn observe(
         &mut self,
         assoc: &[Association],
@@ -220,6 +226,10 @@ impl LandmarkOffsets {
         covariance: &Matrix3<f32>,
         config: &MatchConfig,
     ) {
+        self.scans = self.scans.wrapping_add(1);
+        if self.scans % READ_EVERY_SCANS != 0 {
+            return;
+        }
         let Some(mut walls) = RoughWalls::new(
             &config.roughness,
             config.range_noise_sigma_m,
