@@ -25,8 +25,8 @@
 //!
 //! Only with rough walls ([`super::RoughnessModel`] not smooth): on smooth walls nothing
 //! models a landmark's offset, and nothing is learnt. Measured (README, issue 8 item 17):
-//! 200 m of `tunnel-1km` 4.33 / 3.87 / 3.98 → 3.93 / 3.15 / 3.11 mm, the whole kilometre
-//! 4.22 → 3.56 mm.
+//! 200 m of `tunnel-1km` 4.33 / 3.87 / 3.98 → 3.85 / 3.20 / 3.13 mm, the whole kilometre
+//! 4.22 → 3.55 mm.
 //!
 //! Tried and not kept (position RMS on the comparison's recordings): the readings fused
 //! with the wall after the landmark (a reverse pass; the tunnel 4–18 % worse: the landmark
@@ -226,8 +226,10 @@ impl LandmarkOffsets {
         covariance: &Matrix3<f32>,
         config: &MatchConfig,
     ) {
+        // The first scan offered is read, then every READ_EVERY_SCANS-th.
+        let read = self.scans % READ_EVERY_SCANS == 0;
         self.scans = self.scans.wrapping_add(1);
-        if self.scans % READ_EVERY_SCANS != 0 {
+        if !read {
             return;
         }
         let Some(mut walls) = RoughWalls::new(
