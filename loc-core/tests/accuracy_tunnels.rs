@@ -19,7 +19,7 @@ use loc_core::localizer::{Localizer, LocalizerConfig, Status};
 use loc_core::map::TunnelMap;
 use loc_core::matching::{
     match_scan_with_prealign, select_match_points, MatchConfig, MatchPoints, MatchResult,
-    MatchWorkspace, MatcherKind, PositionPrior, PrealignConfig,
+    MatchWorkspace, MatcherKind, PositionPrior, PrealignConfig, RoughnessModel,
 };
 use loc_core::math;
 use loc_core::scan::{Scan, ScanTiming, SensorSetup, LMS511_MAX_BEAMS};
@@ -494,4 +494,47 @@ fn the_walls_ends_fix_the_position_along_a_bare_tunnel() {
     assert!(taken > 50, "{taken} fixes");
     assert!(with_ends.abs() < 0.05, "{with_ends} m");
     assert!(without > 0.5, "{without} m");
+}
+
+/// Landmark offsets are learnt as the vehicle drives, but not while the filter pulls in its
+/// start (`LEARN_AFTER_START_M`), and only where the walls' roughness is modelled (on smooth
+/// walls nothing models a landmark's offset).
+#[test]
+fn landmark_offsets_are_learnt_after_the_start_on_rough_walls_only() {
+    let t = Tunnel::new(false, true);
+    let at = |s_m: f32| t.pose(s_m, 0.2, 0.0);
+    // Landmarks with a known offset in the first 0.4 m, and at the end of 3 m.
+    let drive = |config: LocalizerConfig| {
+        const STEP_M: f32 = 0.04;
+        let start_s = 30.0;
+        let mut loc =
+            Box::new(Localizer::new(&*t.map, config, at(start_s), initial_cov() * 0.01).unwrap());
+        let mut scan = Box::new(Scan::new());
+        let mut early = 0;
+        for k in 0..75u32 {
+            let s_m = start_s + STEP_M * k as f32;
+            if k > 0 {
+                let step = OdometryIncrement::between(&at(s_m - STEP_M), &at(s_m));
+                loc.predict_odometry(&step).unwrap();
+            }
+            let mut sim = ScanSimulator::new(300 + u64::from(k));
+            let setup = SensorSetup::default();
+            sim.simulate_scan(&*t.map, &at(s_m), &setup, LMS511_MAX_BEAMS, &mut scan);
+            loc.update_scan(&mut scan);
+            // (The wait is 0.5 m.)
+            if s_m - start_s < 0.4 {
+                early = early.max(loc.landmark_offsets().iter().count());
+            }
+        }
+        (early, loc.landmark_offsets().iter().count())
+    };
+    let mut rough = LocalizerConfig::default();
+    rough.matching.roughness = RoughnessModel {
+        sigma_m: 0.005,
+        correlation_m: 0.5,
+    };
+    let (early, late) = drive(rough);
+    assert_eq!(early, 0, "learnt during the start");
+    assert!(late >= 2, "{late} landmarks learnt over 3 m");
+    assert_eq!(drive(LocalizerConfig::default()), (0, 0));
 }

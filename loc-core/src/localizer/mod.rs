@@ -64,8 +64,8 @@ use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, Odo
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
-    match_scan_with_prealign, observe_wall_ends, select_match_points, MatchPoints, MatchResult,
-    MatchWorkspace, PositionPrior, WallEndMemory,
+    match_scan_with_prealign, observe_wall_ends, select_match_points, LandmarkOffsets, MatchPoints,
+    MatchResult, MatchWorkspace, PositionPrior, WallEndMemory,
 };
 
 use crate::relocalise::{Lock, Relocaliser};
@@ -697,6 +697,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.last_wall_end_fixes
     }
 
+    /// What the localizer has learnt of its landmarks' offsets across their walls (see
+    /// [`crate::matching::LandmarkOffsets`]; empty with smooth walls, and for
+    /// [`LEARN_AFTER_START_M`] after a start).
+    pub fn landmark_offsets(&self) -> &LandmarkOffsets {
+        self.workspace.landmark_offsets()
+    }
+
     /// The match of the last scan, if it succeeded (even if the filter then rejected it).
     pub fn last_match(&self) -> Option<&MatchResult> {
         self.last_match.as_ref()
@@ -740,7 +747,7 @@ pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::matching::{LandmarkOffsets, LANDMARK_OFFSET_SLOTS};
+    use crate::matching::LANDMARK_OFFSET_SLOTS;
 
     #[test]
     fn memory_is_what_the_docs_say() {
