@@ -9,9 +9,10 @@
 //! along the tunnel. The rough-wall model ([`RoughWalls`]) predicts the offset from the wall
 //! beside the landmark, but only as far as the wall's correlation reaches. Abreast of a
 //! landmark the scanner sees both flanks, and the offset is measured apart from the
-//! position along. So after each accepted update the localiser reads, from that scan's
-//! points at the updated pose, what they say of each landmark's offset
-//! ([`LandmarkOffsets::observe`]); it keeps the readings' mean per landmark, and every later
+//! position along. So after accepted updates (every [`READ_EVERY_SCANS`]-th, and not in the
+//! first metres after a start: [`crate::localizer::LEARN_AFTER_START_M`]) the localiser
+//! reads, from that scan's points at the updated pose, what they say of each landmark's
+//! offset ([`LandmarkOffsets::observe`]); it keeps the readings' mean per landmark, and every later
 //! match takes it as one more measurement of the offset at that landmark
 //! ([`RoughWalls::add_known_offset`]).
 //!
@@ -21,7 +22,7 @@
 //! ([`CONSISTENT_SIGMAS`]) is not a rigid shape standing off its map position — bent,
 //! knocked, read from either side — and its offset is not given to the matches (on the
 //! S-bend with landmarks on one wall, seed 4, a bent landmark's readings had taken the worst
-//! tracked pose from 7.5 to 10.5 σ; with the check 8.1 σ).
+//! tracked pose from 7.5 to 10.5 σ; with the check 8.1 σ, 6.7 σ as offsets are now read).
 //!
 //! Only with rough walls ([`super::RoughnessModel`] not smooth): on smooth walls nothing
 //! models a landmark's offset, and nothing is learnt. Measured (README, issue 8 item 17):
@@ -34,7 +35,7 @@
 //! offset alone, apart from the wall (the S-bend's wide F4 landmarks 3 % worse than these:
 //! they then hold the lateral position to that of the poses they were read at); readings
 //! kept as moving with the pose as their estimates did (level on the comparison, but a
-//! tracked pose 7.1–7.4 σ off with landmarks installed 1 cm off their marks, against 5.2 σ
+//! tracked pose 7.1–7.4 σ off with landmarks installed 1 cm off their marks, against 5.0 σ
 //! here); offsets read against the wall beside the landmark rather than absolute (the
 //! tunnel 3–23 % worse, the S-bend 6–10 % better than these).
 
@@ -215,7 +216,7 @@ impl LandmarkOffsets {
     /// with `points` (vehicle frame, the points matched). Each point is placed at `pose` and
     /// re-projected onto the map segment it was paired with; those the measurement model
     /// explains ([`MatchConfig::explained_distance_m`]) run through the rough-wall filter
-    /// in scan order, and at each landmark's last point (at least [`MIN_POINTS`] on it)
+    /// in scan order, and at each landmark's last point (at least three on it)
     /// the filter's estimate of the offset there — the landmark's points and the wall
     /// before them — is a reading. Only every [`READ_EVERY_SCANS`]-th scan offered is read.
     pub fn observe(

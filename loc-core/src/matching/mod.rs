@@ -96,7 +96,8 @@ pub use information::{
     NormalEquations, Observability, ObservableSubspace,
 };
 pub use landmark_offsets::{
-    LandmarkOffset, LandmarkOffsets, EFFECTIVE_READINGS, LANDMARK_OFFSET_SLOTS,
+    LandmarkOffset, LandmarkOffsets, CONSISTENT_SIGMAS, EFFECTIVE_READINGS, LANDMARK_OFFSET_SLOTS,
+    READ_EVERY_SCANS,
 };
 pub use points::{select_match_points, MatchPoints, SelectionCounts, WALL_RUN_M};
 pub use prealign::{prealign_along_tunnel, PrealignConfig, PrealignShift};
