@@ -52,14 +52,6 @@ pub use sweep_speed::{SweepSpeed, MAX_SWEEP_BASELINE_S, SWEEP_SPEED_BASELINE_S};
 
 use nalgebra::Matrix3;
 
-/// Distance driven after a start (an initial pose, a relocalisation) before landmark offsets
-/// are learnt, metres: while the filter pulls the start's error in, its covariance claims
-/// more than its pose is worth, and offsets read then would keep the start's error (the
-/// one-wall S-bend's seed 5: 23 mm along at 7.4 σ in its first 1.5 m, as without learning
-/// 11 mm at 4.5 σ with this wait; 1 m and 2 m gave the same there, and lost `paper-10m`
-/// — a 10 m drive whose first landmark is abreast at the start — more of its gain).
-pub const LEARN_AFTER_START_M: f32 = 0.5;
-
 use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
@@ -67,10 +59,17 @@ use crate::matching::{
     match_scan_with_prealign, observe_wall_ends, select_match_points, LandmarkOffsets, MatchPoints,
     MatchResult, MatchWorkspace, PositionPrior, WallEndMemory,
 };
-
 use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, SweepMotion, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
+
+/// Distance driven after a start (an initial pose, a relocalisation) before landmark offsets
+/// are learnt, metres: while the filter pulls the start's error in, its covariance claims
+/// more than its pose is worth, and offsets read then would keep the start's error (the
+/// one-wall S-bend's seed 5: 23 mm along at 7.4 σ in its first 1.5 m, as without learning
+/// 11 mm at 4.5 σ with this wait; 1 m and 2 m gave the same there, and lost `paper-10m`
+/// — a 10 m drive whose first landmark is abreast at the start — more of its gain).
+pub const LEARN_AFTER_START_M: f32 = 0.5;
 
 /// The localisation pipeline over a map `M`.
 pub struct Localizer<'m, M: MapQuery> {
@@ -167,8 +166,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn relocalise(&mut self) {
         self.relocaliser.restart();
         self.relocalising = true;
-        self.workspace.forget_landmark_offsets();
-        self.learn_offsets_from_m = self.odometer_m + LEARN_AFTER_START_M;
+        self.restart_learning();
         self.integrity_monitor.distrust();
         self.doubtful_since_m = None;
         self.gate_failures = 0;
@@ -184,8 +182,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn forget_pose(&mut self) {
         self.ekf = None;
         self.relocalising = false;
-        self.workspace.forget_landmark_offsets();
-        self.learn_offsets_from_m = self.odometer_m + LEARN_AFTER_START_M;
+        self.restart_learning();
         self.relocaliser.restart();
         self.integrity_monitor = IntegrityMonitor::NEW;
         self.last_strip = None;
@@ -196,6 +193,13 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.gate_failures_in_row = 0;
         self.sweep_speed.reset();
         self.status = Status::NotInitialised;
+    }
+
+    /// Forgets the landmark offsets learnt and waits [`LEARN_AFTER_START_M`] before
+    /// learning again (a start: a new pose, a relocalisation).
+    fn restart_learning(&mut self) {
+        self.workspace.forget_landmark_offsets();
+        self.learn_offsets_from_m = self.odometer_m + LEARN_AFTER_START_M;
     }
 
     /// Whether a relocalisation is under way.
@@ -221,8 +225,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             self.config.odometry.scale_sd,
         )?);
         self.status = Status::DeadReckoning;
-        self.workspace.forget_landmark_offsets();
-        self.learn_offsets_from_m = self.odometer_m + LEARN_AFTER_START_M;
+        self.restart_learning();
         self.integrity_monitor = IntegrityMonitor::default();
         self.relocalising = false;
         self.doubtful_since_m = None;
@@ -466,7 +469,9 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         observer.begin(Stage::Update);
         let updated = ekf.update_with_match(&result, &cfg.update);
         self.last_wall_end_fixes = 0;
-        if updated.is_ok() && self.odometer_m >= self.learn_offsets_from_m {
+        // Not while relocalising: the pose kept meanwhile may be the wrong one.
+        let learn = !self.relocalising && self.odometer_m >= self.learn_offsets_from_m;
+        if updated.is_ok() && learn {
             // What this scan says of its landmarks' offsets, for the matches to come.
             self.workspace.learn_landmark_offsets(
                 &self.match_points,
@@ -551,6 +556,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             if let Ok(ekf) = Ekf::with_scale(lock.pose, cov, self.config.odometry.scale_sd) {
                 self.ekf = Some(ekf);
                 self.sweep_speed.reset();
+                self.restart_learning();
             }
         }
         self.integrity_monitor = IntegrityMonitor::UNCONFIRMED;

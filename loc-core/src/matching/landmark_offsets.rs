@@ -22,7 +22,7 @@
 //! ([`CONSISTENT_SIGMAS`]) is not a rigid shape standing off its map position — bent,
 //! knocked, read from either side — and its offset is not given to the matches (on the
 //! S-bend with landmarks on one wall, seed 4, a bent landmark's readings had taken the worst
-//! tracked pose from 7.5 to 10.5 σ; with the check 8.1 σ, 6.7 σ as offsets are now read).
+//! tracked pose from 7.5 to 10.5 σ; with the check 8.1 σ, 6.9 σ as offsets are now read).
 //!
 //! Only with rough walls ([`super::RoughnessModel`] not smooth): on smooth walls nothing
 //! models a landmark's offset, and nothing is learnt. Measured (README, issue 8 item 17):
