@@ -45,7 +45,7 @@ use super::association::{paired, Association};
 use super::information::NormalEquations;
 use super::roughness::{OffsetEstimate, RoughWalls};
 use super::MatchConfig;
-use crate::geometry::{Point2, Pose2};
+use crate::geometry::{Point2, Pose2, PoseTransform};
 
 /// Landmarks whose offsets are remembered at once (the ones seen recently: a scan sees
 /// about a dozen of them). Each slot takes 20 bytes.
@@ -273,7 +273,7 @@ impl LandmarkOffsets {
 /// A scan's points placed at a pose and re-paired with the map segments they were
 /// associated with.
 struct PointsAtPose<'a> {
-    sin_cos: (f32, f32),
+    transform: PoseTransform,
     t: Point2,
     points: &'a [Point2],
     limit_m: f32,
@@ -282,7 +282,7 @@ struct PointsAtPose<'a> {
 impl<'a> PointsAtPose<'a> {
     fn new(pose: Pose2, points: &'a [Point2], limit_m: f32) -> Self {
         Self {
-            sin_cos: crate::math::sin_cos(pose.theta_rad),
+            transform: pose.transform(),
             t: pose.translation(),
             points,
             limit_m,
@@ -299,11 +299,7 @@ impl<'a> PointsAtPose<'a> {
             return None;
         }
         let p = *self.points.get(usize::from(a.point))?;
-        let (s, c) = self.sin_cos;
-        let q = Point2::new(
-            c * p.x_m - s * p.y_m + self.t.x_m,
-            s * p.x_m + c * p.y_m + self.t.y_m,
-        );
+        let q = self.transform.apply(p);
         let pr = a.segment.project_with_normal(q, a.line_normal);
         let paired = paired(q, a.segment, pr, a.pairing);
         (crate::math::abs(paired.residual_m()) <= self.limit_m).then_some((a, p, q, paired))

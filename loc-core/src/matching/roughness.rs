@@ -187,17 +187,22 @@ impl RoughWalls {
         (self.walls.get_mut(Self::wall_index(p)), m)
     }
 
-    /// Moves `wall`'s filters to abscissa `x_m` (vehicle frame, metres).
+    /// Vehicle-frame point `p`'s wall, its filters moved to `p`'s abscissa, and the wall's
+    /// normal in the world (see [`RoughWalls::wall_of`]).
     #[inline]
-    fn advance(wall: &mut WallFilters, x_m: f32, inv_correlation: f32, prior: f32) {
+    fn wall_at(&mut self, p: Point2) -> Option<(&mut WallFilters, Point2)> {
+        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
+        let (wall, m) = self.wall_of(p);
+        let wall = wall?;
         let rho = if wall.last_x_m.is_nan() {
             0.0
         } else {
-            crate::math::exp(-crate::math::abs(x_m - wall.last_x_m) * inv_correlation)
+            crate::math::exp(-crate::math::abs(p.x_m - wall.last_x_m) * inv_correlation)
         };
-        wall.last_x_m = x_m;
+        wall.last_x_m = p.x_m;
         wall.weighted.advance(rho, prior);
         wall.unit.advance(rho, prior);
+        Some((wall, m))
     }
 
     /// Adds one residual to `eq`, whitened of its wall's offset: vehicle-frame point `p`
@@ -221,12 +226,10 @@ impl RoughWalls {
         let j = NormalEquations::jacobian(q, t, n);
         eq.count_residual(r);
         let omega = if w_unit > 0.0 { w / w_unit } else { 1.0 };
-        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
-        let (Some(wall), m) = self.wall_of(p) else {
+        let Some((wall, m)) = self.wall_at(p) else {
             return;
         };
         let a = n.dot(m);
-        Self::advance(wall, p.x_m, inv_correlation, prior);
         // A point without weight says nothing to the step (the estimate passes it by).
         if omega > 0.0 {
             let (e_j, e_r, inv_s) = wall.weighted.take(a, j, r, 1.0 / omega);
@@ -243,13 +246,10 @@ impl RoughWalls {
     /// normal equations (reading landmark offsets after a match, at a third of the cost).
     pub fn track(&mut self, p: Point2, q: Point2, t: Point2, n: Point2, r: f32) {
         let j = NormalEquations::jacobian(q, t, n);
-        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
-        let (Some(wall), m) = self.wall_of(p) else {
+        let Some((wall, m)) = self.wall_at(p) else {
             return;
         };
-        let a = n.dot(m);
-        Self::advance(wall, p.x_m, inv_correlation, prior);
-        let _ = wall.unit.take(a, j, r, 1.0);
+        let _ = wall.unit.take(n.dot(m), j, r, 1.0);
     }
 
     /// Adds what is known beforehand of the wall's offset at vehicle-frame point `p` (a
@@ -271,11 +271,9 @@ impl RoughWalls {
         if !(noise.is_finite() && noise > 0.0 && offset_m.is_finite()) {
             return;
         }
-        let (inv_correlation, prior) = (self.inv_correlation, self.prior);
-        let (Some(wall), _) = self.wall_of(p) else {
+        let Some((wall, _)) = self.wall_at(p) else {
             return;
         };
-        Self::advance(wall, p.x_m, inv_correlation, prior);
         // The offset itself is measured (`a = 1`); the pose does not enter (`J = 0`).
         let zero = Vector3::zeros();
         let (e_j, e_r, inv_s) = wall.weighted.take(1.0, zero, offset_m, noise);
@@ -290,12 +288,10 @@ impl RoughWalls {
     /// `p`'s abscissa (the points' correlation with it taken into account: the filter is
     /// moved there, as the next point there would move it).
     pub fn offset_at(&mut self, p: Point2) -> OffsetEstimate {
-        let (inv_correlation, prior, range_var_m2) =
-            (self.inv_correlation, self.prior, self.range_var_m2);
-        let (Some(wall), _) = self.wall_of(p) else {
+        let range_var_m2 = self.range_var_m2;
+        let Some((wall, _)) = self.wall_at(p) else {
             return OffsetEstimate::UNKNOWN;
         };
-        Self::advance(wall, p.x_m, inv_correlation, prior);
         let f = &wall.unit;
         OffsetEstimate {
             offset_m: f.m_r,
