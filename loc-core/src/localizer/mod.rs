@@ -56,8 +56,8 @@ use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, Odo
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
-    match_scan_with_prealign, observe_wall_ends, select_match_points, LandmarkOffsets, MatchPoints,
-    MatchResult, MatchWorkspace, PositionPrior, WallEndMemory,
+    match_scan_with_prealign, observe_wall_ends, select_match_points, LandmarkGate,
+    LandmarkOffsets, MatchPoints, MatchResult, MatchWorkspace, PositionPrior, WallEndMemory,
 };
 use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, SweepMotion, LMS511_MAX_BEAMS};
@@ -443,6 +443,11 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         observer.end(Stage::Select);
 
         observer.begin(Stage::Match);
+        // Each landmark's own correction is judged against the prediction; not while
+        // relocalising (the pose kept meanwhile may be the wrong one).
+        self.workspace.set_landmark_gate(
+            (!self.relocalising).then(|| LandmarkGate::new(ekf.pose(), &ekf.covariance())),
+        );
         let matched = match_scan_with_prealign(
             self.map,
             points,
@@ -753,7 +758,7 @@ pub fn largest_position_sd_m(p: &Matrix3<f32>) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::matching::LANDMARK_OFFSET_SLOTS;
+    use crate::matching::{GATE_MEMORY_SLOTS, LANDMARK_OFFSET_SLOTS};
 
     #[test]
     fn memory_is_what_the_docs_say() {
@@ -761,12 +766,25 @@ mod tests {
         let localizer = core::mem::size_of::<Localizer<'static, TunnelMap>>();
         let scan = core::mem::size_of::<Scan>();
         let workspace = core::mem::size_of::<MatchWorkspace>();
-        // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB and the landmark
-        // offsets (24 slots of 20 bytes and two counts).
+        // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB, the landmark
+        // offsets (24 slots of 20 bytes and two counts), the landmark gate (32 bytes) and
+        // its memory (8 ids and a count).
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
         let offsets = LANDMARK_OFFSET_SLOTS * 20 + 8;
         assert_eq!(core::mem::size_of::<LandmarkOffsets>(), offsets);
-        assert_eq!(workspace, 512 * 56 + 512 * 8 + 4 + offsets);
+        let gate = core::mem::size_of::<Option<LandmarkGate>>();
+        assert_eq!(gate, 32);
+        let memory = core::mem::size_of::<crate::matching::GateMemory>();
+        assert_eq!(
+            memory,
+            GATE_MEMORY_SLOTS * 2 + core::mem::size_of::<usize>()
+        );
+        // (and the padding that aligns them)
+        let parts = 512 * 56 + 512 * 8 + 4 + offsets + gate + memory;
+        assert!(
+            (parts..parts + 8).contains(&workspace),
+            "{workspace} for {parts}"
+        );
     }
 }

@@ -141,9 +141,14 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     // A prediction known to within `min_prior_sd_m` cannot profit from a pre-alignment:
     // skip its cost.
     let prior_sd_m = prior.sd_m();
+    // The landmarks are judged against the prediction only here, where it is good enough to
+    // start from: a pre-alignment's shift is one the prediction did not foresee.
+    let gate = workspace.landmark_gate.take();
     if prior_sd_m.is_finite() && prior_sd_m < prealign.min_prior_sd_m {
-        let result = match_scan(selected, predicted, config, workspace)?;
-        return Ok(guided(result, None, false, workspace));
+        workspace.landmark_gate = gate;
+        let result = match_scan(selected, predicted, config, workspace);
+        workspace.landmark_gate = None;
+        return Ok(guided(result?, None, false, workspace));
     }
     let mut coarse: heapless::Vec<Point2, COARSE_MATCH_POINTS> = heapless::Vec::new();
     let stride = selected.len().div_ceil(COARSE_MATCH_POINTS).max(1);

@@ -4,8 +4,9 @@
 
 use super::association::{select_k_best, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
+use super::landmark_gate;
 use super::landmark_offsets::OffsetPriors;
-use super::misfit::Misfits;
+use super::misfit::{unpair_landmarks, Misfits};
 use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, KBest, MatchConfig, MatchError, MatchWorkspace,
@@ -28,6 +29,8 @@ pub(super) fn run<M: MapQuery>(
         assoc,
         keys,
         landmark_offsets: offsets,
+        landmark_gate: gate,
+        gate_memory,
         ..
     } = workspace;
     let m = points.len().min(assoc.len());
@@ -58,6 +61,11 @@ pub(super) fn run<M: MapQuery>(
         let mut associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
         if let Some(m) = misfits.as_ref() {
             let left_out = m.unpair(assoc, config.association_gate_m);
+            associated = associated.saturating_sub(left_out);
+        }
+        if gate.is_some() {
+            // Landmarks an earlier gated match found not as mapped.
+            let left_out = unpair_landmarks(assoc, gate_memory.ids(), config.association_gate_m);
             associated = associated.saturating_sub(left_out);
         }
         if it == 1 && explained_m > 0.0 {
@@ -174,7 +182,21 @@ pub(super) fn run<M: MapQuery>(
         if converged && misfits.is_none() && explained_m > 0.0 {
             // At the optimum, a landmark not as mapped shows: converge again without it
             // (iterations and work permitting; the budget holds whatever it finds).
-            let found = Misfits::find(assoc, explained_m);
+            let mut found = Misfits::find(assoc, explained_m);
+            if let Some(gate) = gate.as_ref() {
+                landmark_gate::disagreeing(
+                    assoc,
+                    points,
+                    *best_pose,
+                    gate,
+                    config.range_noise_sigma_m,
+                    config.roughness.sigma_m,
+                    &mut |id| {
+                        found.leave_out(id);
+                        gate_memory.remember(id);
+                    },
+                );
+            }
             let room = it < config.max_iterations && !out_of_work(schedule.work(), config);
             let left_out = if room {
                 found.unpair(assoc, config.association_gate_m)

@@ -73,22 +73,36 @@ impl Misfits {
         out
     }
 
+    /// Leaves out landmark `id` too (judged otherwise: [`super::landmark_gate`]), while
+    /// there is room.
+    pub fn leave_out(&mut self, id: u16) {
+        if !self.ids.contains(&id) {
+            let _ = self.ids.push(id);
+        }
+    }
+
     /// Unpairs the points of the landmarks left out (their distance becomes `gate_m`, as
     /// an unassociated point's); returns how many points are left out.
     pub fn unpair(&self, assoc: &mut [Association], gate_m: f32) -> usize {
-        if self.ids.is_empty() {
-            return 0;
-        }
-        let mut n = 0;
-        for a in assoc.iter_mut() {
-            if a.landmark().is_some_and(|id| self.ids.contains(&id)) {
-                a.pairing = Pairing::NONE;
-                a.distance_m = gate_m;
-                n += 1;
-            }
-        }
-        n
+        unpair_landmarks(assoc, &self.ids, gate_m)
     }
+}
+
+/// Unpairs the points paired with the landmarks `ids` (their distance becomes `gate_m`,
+/// as an unassociated point's); returns how many points were paired with them.
+pub(super) fn unpair_landmarks(assoc: &mut [Association], ids: &[u16], gate_m: f32) -> usize {
+    if ids.is_empty() {
+        return 0;
+    }
+    let mut n = 0;
+    for a in assoc.iter_mut() {
+        if a.landmark().is_some_and(|id| ids.contains(&id)) {
+            a.pairing = Pairing::NONE;
+            a.distance_m = gate_m;
+            n += 1;
+        }
+    }
+    n
 }
 
 #[cfg(test)]

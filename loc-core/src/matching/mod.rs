@@ -76,6 +76,7 @@ mod guided;
 mod hausdorff;
 mod icp;
 mod information;
+mod landmark_gate;
 mod landmark_offsets;
 mod misfit;
 mod points;
@@ -95,6 +96,7 @@ pub use information::{
     covariance_from_information, degeneracy, observable_subspace, truncated_step, Degeneracy,
     NormalEquations, Observability, ObservableSubspace,
 };
+pub use landmark_gate::{GateMemory, LandmarkGate, GATE_MEMORY_SLOTS};
 pub use landmark_offsets::{
     LandmarkOffset, LandmarkOffsets, CONSISTENT_SIGMAS, EFFECTIVE_READINGS, LANDMARK_OFFSET_SLOTS,
     READ_EVERY_SCANS,
@@ -407,6 +409,11 @@ pub struct MatchWorkspace {
     keys: [DistanceKey; MAX_MATCH_POINTS],
     work: u32,
     landmark_offsets: LandmarkOffsets,
+    /// The prediction the next match judges its landmarks against, if any
+    /// ([`MatchWorkspace::set_landmark_gate`]).
+    landmark_gate: Option<LandmarkGate>,
+    /// The landmarks the gate has left out since the pose was last set.
+    gate_memory: GateMemory,
 }
 
 impl Default for MatchWorkspace {
@@ -432,6 +439,8 @@ impl MatchWorkspace {
             keys: [(0.0, 0); MAX_MATCH_POINTS],
             work: 0,
             landmark_offsets: LandmarkOffsets::NEW,
+            landmark_gate: None,
+            gate_memory: GateMemory::NEW,
         }
     }
 
@@ -465,10 +474,31 @@ impl MatchWorkspace {
             .observe(assoc, points, pose, covariance, config);
     }
 
-    /// Forgets the landmarks' offsets (a new pose: readings taken at a wrong one would
-    /// mislead).
+    /// Forgets the landmarks' offsets and the landmarks the gate left out (a new pose:
+    /// what was judged at a wrong one would mislead).
     pub fn forget_landmark_offsets(&mut self) {
         self.landmark_offsets.clear();
+        self.gate_memory.clear();
+    }
+
+    /// Judges the landmarks of the matches to come against a prediction (`None`: not):
+    /// a landmark whose own correction disagrees with it is left out
+    /// ([`LandmarkGate`]). [`match_scan_with_prealign`] takes it for its match when the
+    /// prediction is good enough to skip the pre-alignment, and leaves the workspace
+    /// without one; set it before each call.
+    pub fn set_landmark_gate(&mut self, gate: Option<LandmarkGate>) {
+        self.landmark_gate = gate;
+    }
+
+    /// The prediction the next match judges its landmarks against, if any.
+    pub fn landmark_gate(&self) -> Option<&LandmarkGate> {
+        self.landmark_gate.as_ref()
+    }
+
+    /// The landmarks the gate has left out since the pose was last set (map ids): the
+    /// gated matches leave them out ([`GateMemory`]).
+    pub fn gate_memory(&self) -> &GateMemory {
+        &self.gate_memory
     }
 }
 

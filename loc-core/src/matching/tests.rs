@@ -491,3 +491,80 @@ fn known_landmark_offsets_keep_the_match_from_drawing_along() {
         "mean along error {known_m} m, {unknown_m} m without the offsets"
     );
 }
+
+/// The test tunnel with landmark `id` standing `proud_m` further into the tunnel than the
+/// map says (knocked off its mounting, or fixed to a bulge the map does not have), and
+/// landmark 3 missing.
+fn tunnel_with_landmark_proud(id: u16, proud_m: f32) -> BruteMap {
+    let mut world = BruteMap::tunnel(true);
+    for (seg, k) in world.segs.iter_mut() {
+        if *k == (FeatureKind::Landmark { id }) {
+            // Inward: −y on the left wall (y = 2.5), +y on the right.
+            let dy = if seg.a.y_m > 0.0 { -proud_m } else { proud_m };
+            *seg = Segment::new(
+                Point2::new(seg.a.x_m, seg.a.y_m + dy),
+                Point2::new(seg.b.x_m, seg.b.y_m + dy),
+            );
+        } else if *k == (FeatureKind::Landmark { id: 3 }) {
+            *seg = Segment::new(Point2::new(seg.a.x_m, -2.5), Point2::new(seg.b.x_m, -2.5));
+            *k = FeatureKind::RightWall;
+        }
+    }
+    world
+}
+
+/// A landmark 80 mm proud of its mapped place, 9 m ahead, with the landmark abreast
+/// missing: judged against a prediction good to 4 mm it is left out and remembered, so the
+/// matches after it leave it out from their first iteration; against a 10 cm prediction, or
+/// without one, it is not judged so.
+#[test]
+fn a_landmark_that_disagrees_with_the_prediction_is_left_out_and_remembered() {
+    let map = BruteMap::tunnel(true);
+    let world = tunnel_with_landmark_proud(4, 0.08);
+    let truth = Pose2::new(19.0, 0.2, 0.01);
+    let guess = Pose2::new(19.002, 0.201, 0.0101);
+    let cfg = MatchConfig {
+        roughness: RoughnessModel {
+            sigma_m: 0.005,
+            correlation_m: 0.5,
+        },
+        ..MatchConfig::default()
+    };
+    let prediction = |sd_m: f32| {
+        LandmarkGate::new(
+            guess,
+            &Matrix3::from_diagonal(&Vector3::new(sd_m * sd_m, sd_m * sd_m, 1e-7)),
+        )
+    };
+    // The ids remembered after four matches, and their worst error along the tunnel in
+    // units of the match's own σ there.
+    let remembered = |gate: Option<LandmarkGate>| {
+        let mut workspace = MatchWorkspace::new();
+        let mut worst = 0.0f32;
+        for seed in 0..4 {
+            let pts = selected_points(&world, truth, seed, 64);
+            workspace.set_landmark_gate(gate);
+            let r = match_scan(&map, &pts, guess, &cfg, &mut workspace).unwrap();
+            let sd_m = r.covariance.m11.sqrt();
+            worst = worst.max((r.pose.x_m - truth.x_m).abs() / sd_m);
+        }
+        let ids = workspace.gate_memory().ids();
+        (
+            heapless::Vec::<u16, GATE_MEMORY_SLOTS>::from_slice(ids).unwrap(),
+            worst,
+        )
+    };
+    let (ids, worst_sigmas) = remembered(Some(prediction(0.004)));
+    assert_eq!(ids.as_slice(), &[4]);
+    assert!(worst_sigmas < 3.0, "{worst_sigmas} σ");
+    assert!(remembered(Some(prediction(0.1))).0.is_empty());
+    assert!(remembered(None).0.is_empty());
+    // A new pose forgets.
+    let mut workspace = MatchWorkspace::new();
+    workspace.set_landmark_gate(Some(prediction(0.004)));
+    let pts = selected_points(&world, truth, 9, 64);
+    match_scan(&map, &pts, guess, &cfg, &mut workspace).unwrap();
+    assert!(!workspace.gate_memory().ids().is_empty());
+    workspace.forget_landmark_offsets();
+    assert!(workspace.gate_memory().ids().is_empty());
+}
