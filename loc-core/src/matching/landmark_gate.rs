@@ -11,8 +11,8 @@
 //! beside them asked 0–5 mm, and the pose went 30–35 mm off along while claiming 4 mm.
 //!
 //! Here each landmark's paired points give the correction that landmark alone asks for:
-//! one reweighted least-squares step from the match's optimum with the match's own weights
-//! `1/max(|r|, σ)`, in the directions its points observe (the major axis of their normals,
+//! one reweighted least-squares step from the match's optimum with the Hausdorff match's
+//! weights `1/max(|r|, σ)`, in the directions its points observe (the major axis of their normals,
 //! and the minor one too when both flanks are in view). Added to the match's correction of
 //! the prediction it is that landmark's innovation. Its covariance is the prediction's, the
 //! points' noise, and the mounting: the landmark sits on a wall that departs from the map,
@@ -39,15 +39,14 @@ use heapless::Vec;
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
 use super::association::Association;
+use super::misfit::MIN_POINTS;
+use super::roughness::outward_normal;
 use crate::filter::GateProbability;
 use crate::geometry::{Point2, Pose2};
 use crate::math;
 
 /// Most landmarks judged in one match (the first met in scan order; a scan sees 2–10).
 const MAX_JUDGED: usize = 16;
-
-/// Fewest paired points for a landmark to be judged (as [`super::misfit`]).
-const MIN_POINTS: u16 = 6;
 
 /// A landmark's mounting is never known better than this across its wall, metres
 /// (brackets, a smooth wall's own tolerance).
@@ -240,7 +239,7 @@ pub(super) fn disagreeing(
     leave_out: &mut dyn FnMut(u16),
 ) {
     let floor_m = math::max(range_sigma_m, 1.0e-3);
-    let (s, c) = math::sin_cos(pose.theta_rad);
+    let sin_cos = math::sin_cos(pose.theta_rad);
     let mut judged: Vec<Sums, MAX_JUDGED> = Vec::new();
     for a in assoc.iter().filter(|a| a.associated()) {
         let Some(id) = a.landmark() else { continue };
@@ -256,15 +255,9 @@ pub(super) fn disagreeing(
         let Some(t) = judged.get_mut(index) else {
             continue;
         };
-        // The wall's outward normal: the vehicle's left or right axis in the world.
-        let left = points
-            .get(usize::from(a.point))
-            .is_none_or(|p| p.y_m >= 0.0);
-        let m = if left {
-            Vector2::new(-s, c)
-        } else {
-            Vector2::new(s, -c)
-        };
+        let p = points.get(usize::from(a.point)).copied();
+        let m = outward_normal(p.unwrap_or(Point2::ORIGIN), sin_cos);
+        let m = Vector2::new(m.x_m, m.y_m);
         let n = Vector2::new(a.normal.x_m, a.normal.y_m);
         let r = a.residual_m();
         let w = 1.0 / math::max(math::abs(r), floor_m);

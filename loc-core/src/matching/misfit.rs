@@ -21,7 +21,7 @@ const MAX_JUDGED: usize = 16;
 const MAX_MISFITS: usize = 4;
 /// Fewest paired points for a landmark to be judged (a landmark seen edge-on or far off
 /// has a handful, and a few unexplained among them say nothing).
-const MIN_POINTS: u16 = 6;
+pub(super) const MIN_POINTS: u16 = 6;
 /// Fewest paired points of a landmark that fits, for the others to be judged against it.
 const MIN_FIT_POINTS: u16 = 3;
 /// A landmark is a misfit when at least this fraction of its paired points lie beyond the

@@ -174,16 +174,11 @@ impl RoughWalls {
         usize::from(p.y_m < 0.0)
     }
 
-    /// The wall of vehicle-frame point `p` and its normal in the world (the vehicle's left
-    /// or right axis: outward, into the rock).
+    /// The wall of vehicle-frame point `p` and its normal in the world
+    /// ([`outward_normal`]).
     #[inline]
     fn wall_of(&mut self, p: Point2) -> (Option<&mut WallFilters>, Point2) {
-        let (s, c) = self.sin_cos;
-        let m = if p.y_m >= 0.0 {
-            Point2::new(-s, c)
-        } else {
-            Point2::new(s, -c)
-        };
+        let m = outward_normal(p, self.sin_cos);
         (self.walls.get_mut(Self::wall_index(p)), m)
     }
 
@@ -298,6 +293,19 @@ impl RoughWalls {
             jacobian: f.m_j,
             variance_m2: f.p * range_var_m2,
         }
+    }
+}
+
+/// The outward normal (into the rock) of the wall of vehicle-frame point `p` (left for
+/// `y ≥ 0`, else right), in the world for a vehicle heading with `(sin, cos)` `sin_cos`:
+/// the vehicle's left or right axis.
+#[inline]
+pub(super) fn outward_normal(p: Point2, sin_cos: (f32, f32)) -> Point2 {
+    let (s, c) = sin_cos;
+    if p.y_m >= 0.0 {
+        Point2::new(-s, c)
+    } else {
+        Point2::new(s, -c)
     }
 }
 
