@@ -63,14 +63,6 @@ use crate::relocalise::{Lock, Relocaliser};
 use crate::scan::{Scan, SweepMotion, LMS511_MAX_BEAMS};
 use crate::strip::{strip_walls, PointLabel, StripSummary};
 
-/// Distance driven after a start (an initial pose, a relocalisation) before landmark offsets
-/// are learnt, metres: while the filter pulls the start's error in, its covariance claims
-/// more than its pose is worth, and offsets read then would keep the start's error (the
-/// one-wall S-bend's seed 5: 23 mm along at 7.4 σ in its first 1.5 m, as without learning
-/// 11 mm at 4.5 σ with this wait; 1 m and 2 m gave the same there, and lost `paper-10m`
-/// — a 10 m drive whose first landmark is abreast at the start — more of its gain).
-pub const LEARN_AFTER_START_M: f32 = 0.5;
-
 /// The localisation pipeline over a map `M`.
 pub struct Localizer<'m, M: MapQuery> {
     map: &'m M,
@@ -90,9 +82,6 @@ pub struct Localizer<'m, M: MapQuery> {
     integrity_monitor: IntegrityMonitor,
     /// Distance driven by the predictions so far, metres (for the integrity monitor).
     odometer_m: f32,
-    /// Odometer reading from which landmark offsets are learnt: the pose's first metres
-    /// after a start carry the start's error ([`LEARN_AFTER_START_M`]).
-    learn_offsets_from_m: f32,
     /// Searching the map for the vehicle (see the module docs).
     relocalising: bool,
     relocaliser: Relocaliser,
@@ -144,7 +133,6 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             wall_end_memory: WallEndMemory::NEW,
             integrity_monitor: IntegrityMonitor::NEW,
             odometer_m: 0.0,
-            learn_offsets_from_m: 0.0,
             relocalising: false,
             relocaliser: Relocaliser::NEW,
             doubtful_since_m: None,
@@ -195,11 +183,10 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.status = Status::NotInitialised;
     }
 
-    /// Forgets the landmark offsets learnt and waits [`LEARN_AFTER_START_M`] before
-    /// learning again (a start: a new pose, a relocalisation).
+    /// Forgets what was learnt of the landmarks at the pose before (a start: a new pose, a
+    /// relocalisation): their offsets and those the gate left out.
     fn restart_learning(&mut self) {
         self.workspace.forget_landmark_offsets();
-        self.learn_offsets_from_m = self.odometer_m + LEARN_AFTER_START_M;
     }
 
     /// Whether a relocalisation is under way.
@@ -475,8 +462,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         let updated = ekf.update_with_match(&result, &cfg.update);
         self.last_wall_end_fixes = 0;
         // Not while relocalising: the pose kept meanwhile may be the wrong one.
-        let learn = !self.relocalising && self.odometer_m >= self.learn_offsets_from_m;
-        if updated.is_ok() && learn {
+        if updated.is_ok() && !self.relocalising {
             // What this scan says of its landmarks' offsets, for the matches to come.
             self.workspace.learn_landmark_offsets(
                 &self.match_points,
@@ -709,8 +695,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     }
 
     /// What the localizer has learnt of its landmarks' offsets across their walls (see
-    /// [`crate::matching::LandmarkOffsets`]; empty with smooth walls, and for
-    /// [`LEARN_AFTER_START_M`] after a start).
+    /// [`crate::matching::LandmarkOffsets`]; empty with smooth walls, and emptied by a
+    /// start).
     pub fn landmark_offsets(&self) -> &LandmarkOffsets {
         self.workspace.landmark_offsets()
     }

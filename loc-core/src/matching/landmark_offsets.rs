@@ -9,8 +9,8 @@
 //! along the tunnel. The rough-wall model ([`RoughWalls`]) predicts the offset from the wall
 //! beside the landmark, but only as far as the wall's correlation reaches. Abreast of a
 //! landmark the scanner sees both flanks, and the offset is measured apart from the
-//! position along. So after accepted updates (every [`READ_EVERY_SCANS`]-th, and not in the
-//! first metres after a start: [`crate::localizer::LEARN_AFTER_START_M`]) the localiser
+//! position along. So after accepted updates (every [`READ_EVERY_SCANS`]-th; not while it
+//! relocalises) the localiser
 //! reads, from that scan's points at the updated pose, what they say of each landmark's
 //! offset ([`LandmarkOffsets::observe`]); it keeps the readings' mean per landmark, and every later
 //! match takes it as one more measurement of the offset at that landmark
