@@ -12,8 +12,8 @@
 //!
 //! Here each landmark's paired points give the correction that landmark alone asks for:
 //! one reweighted least-squares step from the match's optimum with the Hausdorff match's
-//! weights `1/max(|r|, σ)`, in the directions its points observe (the major axis of their normals,
-//! and the minor one too when both flanks are in view). Added to the match's correction of
+//! weights `1/max(|r|, σ)`, in the directions its points observe (the major axis of their
+//! normals, and the minor one too when both flanks are in view). Added to the match's correction of
 //! the prediction it is that landmark's innovation. Its covariance is the prediction's, the
 //! points' noise, and the mounting: the landmark sits on a wall that departs from the map,
 //! and an offset across the wall moves the correction by `J = A⁻¹ Σ w n (n·m)` per metre
@@ -22,7 +22,8 @@
 //! freedom per observed direction) the landmark is left out, and remembered
 //! ([`GateMemory`]).
 //!
-//! Measured (`host-sim replay` of the comparison's recordings, 2026-12-05): the S-bend's
+//! Measured when it was added (`host-sim replay` of the comparison's recordings, 2026-12-05,
+//! still with a wait after a start before landmark offsets were learnt): the S-bend's
 //! seeds 1–3 5.94 / 5.62 / 6.24 → 5.94 / 5.51 / 5.63 mm (the worst error on seed 3
 //! 38 → 18 mm); with F4 on the right wall only (`host-sim run`, seeds 1–6) 6.0 / 5.6 / 8.4
 //! / 6.2 / 5.8 / 9.8 → 6.0 / 5.5 / 6.3 / 5.4 / 5.6 / 5.4 mm. The P1 recordings (the
@@ -65,7 +66,7 @@ pub struct LandmarkGate {
     pub position_covariance_m2: Matrix2<f32>,
     /// How rarely a landmark as mapped is left out (the chi-square gate of its innovation,
     /// one degree of freedom per direction its points observe).
-    pub gate: GateProbability,
+    pub probability: GateProbability,
 }
 
 impl LandmarkGate {
@@ -76,7 +77,7 @@ impl LandmarkGate {
         Self {
             predicted,
             position_covariance_m2: covariance.fixed_view::<2, 2>(0, 0).into_owned(),
-            gate: GateProbability::P999,
+            probability: GateProbability::P999,
         }
     }
 }
@@ -92,9 +93,10 @@ pub const GATE_MEMORY_SLOTS: usize = 8;
 /// others — the prediction already drawn towards it by the scans before, its innovation
 /// shrinking — it would go on drawing the pose. Remembered, it is used no more: on the
 /// S-bend's seed 3, 6.24 → 5.63 mm and a 38 → 18 mm worst error (judged scan by scan:
-/// 5.99 mm). The memory is cleared with every new pose ([`super::MatchWorkspace::forget_landmark_offsets`]);
-/// a prediction that was itself wrong leaves out good landmarks only while the filter is
-/// confident, and driving on odometry without them makes it less so.
+/// 5.99 mm). The memory is cleared with every new pose
+/// ([`super::MatchWorkspace::forget_landmark_offsets`]); a prediction that was itself wrong
+/// leaves out good landmarks only while the filter is confident, and driving on odometry
+/// without them makes it less so.
 #[derive(Debug, Clone, Default)]
 pub struct GateMemory {
     ids: Vec<u16, GATE_MEMORY_SLOTS>,
@@ -282,7 +284,7 @@ pub(super) fn disagreeing(
             mount_sd_m,
         );
         if let Some((d2, dof)) = judged {
-            if d2 > gate.gate.threshold(dof) {
+            if d2 > gate.probability.threshold(dof) {
                 leave_out(t.id);
             }
         }
