@@ -20,7 +20,11 @@
 //! (`A = Σ w n nᵀ`, `m` the wall's normal; nothing along a sawtooth seen on both slants,
 //! much on one). Beyond the chi-square gate ([`GateProbability::P999`], one degree of
 //! freedom per observed direction) the landmark is left out, and remembered
-//! ([`GateMemory`]).
+//! ([`GateMemory`]). As in `misfit`, a landmark is judged against one that fits: when no
+//! landmark agrees with the prediction, the prediction is what is off (a vehicle moved where
+//! its odometry did not see: without this rule, a vehicle kidnapped 47 m along the tunnel
+//! was reported tracking 47 m off on one scan, its landmarks left out instead of refusing
+//! the match), and nothing is left out.
 //!
 //! Measured when it was added (`host-sim replay` of the comparison's recordings, 2026-12-05,
 //! still with a wait after a start before landmark offsets were learnt): the S-bend's
@@ -276,18 +280,27 @@ pub(super) fn disagreeing(
     } else {
         MIN_MOUNT_SD_M
     };
-    for t in judged.iter().filter(|t| t.points >= MIN_POINTS) {
-        let judged = t.innovation(
+    // Each landmark's verdict: `Some(true)` when it disagrees with the prediction.
+    let verdict = |t: &Sums| {
+        if t.points < MIN_POINTS {
+            return None;
+        }
+        let (d2, dof) = t.innovation(
             moved,
             &gate.position_covariance_m2,
             range_sigma_m,
             mount_sd_m,
-        );
-        if let Some((d2, dof)) = judged {
-            if d2 > gate.probability.threshold(dof) {
-                leave_out(t.id);
-            }
-        }
+        )?;
+        Some(d2 > gate.probability.threshold(dof))
+    };
+    // Beside a landmark that agrees: when none does, the prediction is what is off (a
+    // vehicle moved where the odometry did not see), and the landmarks' disagreement is
+    // the filter's and the integrity monitor's to see.
+    if !judged.iter().any(|t| verdict(t) == Some(false)) {
+        return;
+    }
+    for t in judged.iter().filter(|t| verdict(t) == Some(true)) {
+        leave_out(t.id);
     }
 }
 
@@ -363,15 +376,39 @@ mod tests {
     }
 
     #[test]
+    fn when_no_landmark_agrees_the_prediction_is_off_and_nothing_is_left_out() {
+        // Both ask for 60 mm: the vehicle is not where the prediction says.
+        let mut assoc = landmark(7, 20, 0.06);
+        for a in landmark(8, 20, 0.06) {
+            let _ = assoc.push(a);
+        }
+        assert!(judge(&assoc, Pose2::new(0.0, 0.0, 0.0), &gate(0.004)).is_empty());
+        // Alone, a landmark has none to agree with.
+        assert!(judge(
+            &landmark(7, 20, 0.06),
+            Pose2::new(0.0, 0.0, 0.0),
+            &gate(0.004)
+        )
+        .is_empty());
+    }
+
+    #[test]
     fn an_uncertain_prediction_or_few_points_leave_everything_in() {
-        let assoc = landmark(7, 20, 0.06);
+        // Beside landmark 8, which fits.
+        let with_fitting = |mut assoc: heapless::Vec<Association, 64>| {
+            for a in landmark(8, 20, 0.0) {
+                let _ = assoc.push(a);
+            }
+            assoc
+        };
+        let assoc = with_fitting(landmark(7, 20, 0.06));
         // 60 mm is within 3.3 σ of a 3 cm prediction.
         assert!(judge(&assoc, Pose2::new(0.0, 0.0, 0.0), &gate(0.03)).is_empty());
         // Five points are not judged.
-        let few = landmark(7, 5, 0.2);
+        let few = with_fitting(landmark(7, 5, 0.2));
         assert!(judge(&few, Pose2::new(0.0, 0.0, 0.0), &gate(0.004)).is_empty());
         // Within the noise and the mounting: 8 mm.
-        let near = landmark(7, 20, 0.008);
+        let near = with_fitting(landmark(7, 20, 0.008));
         assert!(judge(&near, Pose2::new(0.0, 0.0, 0.0), &gate(0.004)).is_empty());
     }
 
