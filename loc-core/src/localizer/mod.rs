@@ -7,7 +7,9 @@
 //! 2. [`crate::matching::select_match_points`]: the points to match;
 //! 3. [`crate::matching::match_scan_with_prealign`]: landmark pre-alignment
 //!    ([`crate::matching::prealign_along_tunnel`]) and Hausdorff or PL-ICP matching
-//!    ([`crate::matching::match_scan`]) against the map;
+//!    ([`crate::matching::match_scan`]) against the map; while tracking, each landmark is
+//!    judged against the filter's prediction ([`crate::matching::LandmarkGate`]) and one
+//!    that disagrees is left out;
 //! 4. [`crate::filter::Ekf::update_with_match`]: the EKF update on the observed directions;
 //!    after an accepted one, where the scan sees a stored wall end
 //!    ([`crate::matching::observe_wall_ends`]), a fix of the position along it

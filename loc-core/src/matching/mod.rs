@@ -16,7 +16,9 @@
 //!   Steps that raise the cost are rejected and retried shorter (Levenberg damping). The K
 //!   best are found by introselect in the workspace (`O(m)`, no full sort). At the optimum,
 //!   a landmark whose points the model mostly leaves unexplained (bent or moved) is left
-//!   out and the match converges again without it (`misfit`).
+//!   out and the match converges again without it (`misfit`); so is one whose own
+//!   correction disagrees with the filter's prediction, beside one that agrees
+//!   ([`LandmarkGate`], `landmark_gate`).
 //! - [`MatcherKind::Icp`]: point-to-line ICP after Censi (PL-ICP): every point within an
 //!   association gate is paired with the nearest map segment and the sum of squared
 //!   point-to-line distances is minimised; the gate shrinks to 3× the RMS residual (never below
