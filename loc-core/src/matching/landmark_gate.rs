@@ -22,9 +22,8 @@
 //! freedom per observed direction) the landmark is left out, and remembered
 //! ([`GateMemory`]). As in `misfit`, a landmark is judged against one that fits: when no
 //! landmark agrees with the prediction, the prediction is what is off (a vehicle moved where
-//! its odometry did not see: without this rule, a vehicle kidnapped 47 m along the tunnel
-//! was reported tracking 47 m off on one scan, its landmarks left out instead of refusing
-//! the match), and nothing is left out.
+//! its odometry did not see, whose landmarks must not be refused in place of its match),
+//! and nothing is left out.
 //!
 //! Measured when it was added (`host-sim replay` of the comparison's recordings, 2026-12-05,
 //! still with a wait after a start before landmark offsets were learnt): the S-bend's
