@@ -156,7 +156,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn relocalise(&mut self) {
         self.relocaliser.restart();
         self.relocalising = true;
-        self.restart_learning();
+        self.workspace.forget_landmarks();
         self.integrity_monitor.distrust();
         self.doubtful_since_m = None;
         self.gate_failures = 0;
@@ -172,7 +172,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
     pub fn forget_pose(&mut self) {
         self.ekf = None;
         self.relocalising = false;
-        self.restart_learning();
+        self.workspace.forget_landmarks();
         self.relocaliser.restart();
         self.integrity_monitor = IntegrityMonitor::NEW;
         self.last_strip = None;
@@ -183,12 +183,6 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.gate_failures_in_row = 0;
         self.sweep_speed.reset();
         self.status = Status::NotInitialised;
-    }
-
-    /// Forgets what was learnt of the landmarks at the pose before (a start: a new pose, a
-    /// relocalisation): their offsets and those the gate left out.
-    fn restart_learning(&mut self) {
-        self.workspace.forget_landmark_offsets();
     }
 
     /// Whether a relocalisation is under way.
@@ -214,7 +208,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             self.config.odometry.scale_sd,
         )?);
         self.status = Status::DeadReckoning;
-        self.restart_learning();
+        self.workspace.forget_landmarks();
         self.integrity_monitor = IntegrityMonitor::default();
         self.relocalising = false;
         self.doubtful_since_m = None;
@@ -432,11 +426,11 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         observer.end(Stage::Select);
 
         observer.begin(Stage::Match);
+        let prior = PositionPrior::from_covariance(&ekf.covariance());
         // Each landmark's own correction is judged against the prediction; not while
         // relocalising (the pose kept meanwhile may be the wrong one).
-        self.workspace.set_landmark_gate(
-            (!self.relocalising).then(|| LandmarkGate::new(ekf.pose(), &ekf.covariance())),
-        );
+        self.workspace
+            .set_landmark_gate((!self.relocalising).then(|| LandmarkGate::new(ekf.pose(), &prior)));
         let matched = match_scan_with_prealign(
             self.map,
             points,
@@ -444,7 +438,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             strip,
             &self.match_points,
             ekf.pose(),
-            &PositionPrior::from_covariance(&ekf.covariance()),
+            &prior,
             &cfg.prealign,
             &cfg.matching,
             &mut self.workspace,
@@ -549,7 +543,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             if let Ok(ekf) = Ekf::with_scale(lock.pose, cov, self.config.odometry.scale_sd) {
                 self.ekf = Some(ekf);
                 self.sweep_speed.reset();
-                self.restart_learning();
+                self.workspace.forget_landmarks();
             }
         }
         self.integrity_monitor = IntegrityMonitor::UNCONFIRMED;

@@ -74,6 +74,11 @@ impl PositionPrior {
         }
     }
 
+    /// The covariance of the predicted position `(x, y)`, world frame, m².
+    pub fn covariance_m2(&self) -> &Matrix2<f32> {
+        &self.covariance_m2
+    }
+
     /// The same standard deviation `sd_m` (metres) in every direction.
     pub fn isotropic(sd_m: f32) -> Self {
         let v = sd_m * sd_m;

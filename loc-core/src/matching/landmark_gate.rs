@@ -40,11 +40,12 @@
 //! filter then drives on odometry, its variance grows, and the gate widens with it.
 
 use heapless::Vec;
-use nalgebra::{Matrix2, Matrix3, Vector2};
+use nalgebra::{Matrix2, Vector2};
 
 use super::association::Association;
 use super::misfit::MIN_POINTS;
 use super::roughness::outward_normal;
+use super::PositionPrior;
 use crate::filter::GateProbability;
 use crate::geometry::{Point2, Pose2};
 use crate::math;
@@ -73,13 +74,12 @@ pub struct LandmarkGate {
 }
 
 impl LandmarkGate {
-    /// The gate of a prediction `predicted` with covariance `covariance` of
-    /// `(x_m, y_m, theta_rad)` (a filter's), leaving out a landmark as mapped once in a
-    /// thousand ([`GateProbability::P999`]).
-    pub fn new(predicted: Pose2, covariance: &Matrix3<f32>) -> Self {
+    /// The gate of a prediction `predicted` whose position is uncertain by `prior`,
+    /// leaving out a landmark as mapped once in a thousand ([`GateProbability::P999`]).
+    pub fn new(predicted: Pose2, prior: &PositionPrior) -> Self {
         Self {
             predicted,
-            position_covariance_m2: covariance.fixed_view::<2, 2>(0, 0).into_owned(),
+            position_covariance_m2: *prior.covariance_m2(),
             probability: GateProbability::P999,
         }
     }
@@ -97,7 +97,7 @@ pub const GATE_MEMORY_SLOTS: usize = 8;
 /// shrinking — it would go on drawing the pose. Remembered, it is used no more: on the
 /// S-bend's seed 3, 6.24 → 5.63 mm and a 38 → 18 mm worst error (judged scan by scan:
 /// 5.99 mm). The memory is cleared with every new pose
-/// ([`super::MatchWorkspace::forget_landmark_offsets`]); a prediction that was itself wrong
+/// ([`super::MatchWorkspace::forget_landmarks`]); a prediction that was itself wrong
 /// leaves out good landmarks only while the filter is confident, and driving on odometry
 /// without them makes it less so.
 #[derive(Debug, Clone, Default)]
@@ -279,27 +279,27 @@ pub(super) fn disagreeing(
     } else {
         MIN_MOUNT_SD_M
     };
-    // Each landmark's verdict: `Some(true)` when it disagrees with the prediction.
-    let verdict = |t: &Sums| {
-        if t.points < MIN_POINTS {
-            return None;
-        }
-        let (d2, dof) = t.innovation(
+    // Each judged landmark's verdict: whether it disagrees with the prediction.
+    let mut verdicts: Vec<(u16, bool), MAX_JUDGED> = Vec::new();
+    for t in judged.iter().filter(|t| t.points >= MIN_POINTS) {
+        let innovation = t.innovation(
             moved,
             &gate.position_covariance_m2,
             range_sigma_m,
             mount_sd_m,
-        )?;
-        Some(d2 > gate.probability.threshold(dof))
-    };
+        );
+        if let Some((d2, dof)) = innovation {
+            let _ = verdicts.push((t.id, d2 > gate.probability.threshold(dof)));
+        }
+    }
     // Beside a landmark that agrees: when none does, the prediction is what is off (a
     // vehicle moved where the odometry did not see), and the landmarks' disagreement is
     // the filter's and the integrity monitor's to see.
-    if !judged.iter().any(|t| verdict(t) == Some(false)) {
+    if verdicts.iter().all(|&(_, disagrees)| disagrees) {
         return;
     }
-    for t in judged.iter().filter(|t| verdict(t) == Some(true)) {
-        leave_out(t.id);
+    for &(id, _) in verdicts.iter().filter(|&&(_, disagrees)| disagrees) {
+        leave_out(id);
     }
 }
 
@@ -341,10 +341,7 @@ mod tests {
     }
 
     fn gate(sd_m: f32) -> LandmarkGate {
-        LandmarkGate::new(
-            Pose2::new(0.0, 0.0, 0.0),
-            &Matrix3::from_diagonal(&nalgebra::Vector3::new(sd_m * sd_m, sd_m * sd_m, 1e-6)),
-        )
+        LandmarkGate::new(Pose2::new(0.0, 0.0, 0.0), &PositionPrior::isotropic(sd_m))
     }
 
     #[test]

@@ -476,9 +476,9 @@ impl MatchWorkspace {
             .observe(assoc, points, pose, covariance, config);
     }
 
-    /// Forgets the landmarks' offsets and the landmarks the gate left out (a new pose:
-    /// what was judged at a wrong one would mislead).
-    pub fn forget_landmark_offsets(&mut self) {
+    /// Forgets what was learnt of the landmarks — their offsets and those the gate left
+    /// out (a new pose: what was judged at a wrong one would mislead).
+    pub fn forget_landmarks(&mut self) {
         self.landmark_offsets.clear();
         self.gate_memory.clear();
     }

@@ -416,12 +416,15 @@ fn selected_points(world: &BruteMap, truth: Pose2, seed: u64, landmark_points: u
     pts
 }
 
-/// The test tunnel with every landmark mounted `offset_m` further out (into the rock; negative:
-/// standing off the wall on brackets) than the map says.
-fn tunnel_with_landmarks_set_out(offset_m: f32) -> BruteMap {
+/// The test tunnel with the landmarks `moved` says mounted `offset_m` further out (into the
+/// rock; negative: standing proud of the wall, on brackets or knocked off) than the map says.
+fn tunnel_with_landmarks_out(offset_m: f32, moved: impl Fn(u16) -> bool) -> BruteMap {
     let mut world = BruteMap::tunnel(true);
     for (seg, k) in world.segs.iter_mut() {
-        if let FeatureKind::Landmark { .. } = k {
+        if let FeatureKind::Landmark { id } = k {
+            if !moved(*id) {
+                continue;
+            }
             // Outward: +y on the left wall (y = 2.5), −y on the right.
             let dy = if seg.a.y_m > 0.0 { offset_m } else { -offset_m };
             let shift = |p: Point2| Point2::new(p.x_m, p.y_m + dy);
@@ -429,6 +432,11 @@ fn tunnel_with_landmarks_set_out(offset_m: f32) -> BruteMap {
         }
     }
     world
+}
+
+/// The test tunnel with every landmark mounted `offset_m` further out than the map says.
+fn tunnel_with_landmarks_set_out(offset_m: f32) -> BruteMap {
+    tunnel_with_landmarks_out(offset_m, |_| true)
 }
 
 #[test]
@@ -492,23 +500,6 @@ fn known_landmark_offsets_keep_the_match_from_drawing_along() {
     );
 }
 
-/// The test tunnel with landmark `id` standing `proud_m` further into the tunnel than the
-/// map says (knocked off its mounting, or fixed to a bulge the map does not have).
-fn tunnel_with_landmark_proud(id: u16, proud_m: f32) -> BruteMap {
-    let mut world = BruteMap::tunnel(true);
-    for (seg, k) in world.segs.iter_mut() {
-        if *k == (FeatureKind::Landmark { id }) {
-            // Inward: −y on the left wall (y = 2.5), +y on the right.
-            let dy = if seg.a.y_m > 0.0 { -proud_m } else { proud_m };
-            *seg = Segment::new(
-                Point2::new(seg.a.x_m, seg.a.y_m + dy),
-                Point2::new(seg.b.x_m, seg.b.y_m + dy),
-            );
-        }
-    }
-    world
-}
-
 /// The landmark abreast (id 3) 80 mm proud of its mapped place, the next one (9 m ahead)
 /// as mapped: judged against a prediction good to 4 mm the proud one is left out and
 /// remembered, so the matches after it leave it out from their first iteration; against a
@@ -516,7 +507,7 @@ fn tunnel_with_landmark_proud(id: u16, proud_m: f32) -> BruteMap {
 #[test]
 fn a_landmark_that_disagrees_with_the_prediction_is_left_out_and_remembered() {
     let map = BruteMap::tunnel(true);
-    let world = tunnel_with_landmark_proud(3, 0.08);
+    let world = tunnel_with_landmarks_out(-0.08, |id| id == 3);
     let truth = Pose2::new(19.0, 0.2, 0.01);
     let guess = Pose2::new(19.002, 0.201, 0.0101);
     let cfg = MatchConfig {
@@ -526,12 +517,7 @@ fn a_landmark_that_disagrees_with_the_prediction_is_left_out_and_remembered() {
         },
         ..MatchConfig::default()
     };
-    let prediction = |sd_m: f32| {
-        LandmarkGate::new(
-            guess,
-            &Matrix3::from_diagonal(&Vector3::new(sd_m * sd_m, sd_m * sd_m, 1e-7)),
-        )
-    };
+    let prediction = |sd_m: f32| LandmarkGate::new(guess, &PositionPrior::isotropic(sd_m));
     // The ids remembered after four matches, and their worst error along the tunnel in
     // units of the match's own σ there.
     let remembered = |gate: Option<LandmarkGate>| {
@@ -561,6 +547,6 @@ fn a_landmark_that_disagrees_with_the_prediction_is_left_out_and_remembered() {
     let pts = selected_points(&world, truth, 9, 64);
     match_scan(&map, &pts, guess, &cfg, &mut workspace).unwrap();
     assert!(!workspace.gate_memory().ids().is_empty());
-    workspace.forget_landmark_offsets();
+    workspace.forget_landmarks();
     assert!(workspace.gate_memory().ids().is_empty());
 }
