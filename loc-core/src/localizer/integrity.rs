@@ -11,13 +11,25 @@
 //! damaged one leaves its cluster unexplained, so the judgement weighs the recent scans
 //! ([`IntegrityMonitor`]: the running share of explained clusters over about
 //! `1 / window_weight` scans). The map is trusted from the first scan whose two or more
-//! landmarks all fit, until the share falls below `min_recent_fraction` (a scan whose own
-//! landmarks mostly misfit is not trusted either); then, and when that first scan does not
-//! fit whole, only again once the landmarks have fitted over `confirm_distance_m` driven:
-//! the scanner has then seen new landmarks, which a wrong map or a wrong alignment would
-//! not explain. While it is not, the localizer goes on matching (its pose is still the best it
-//! has) but reports [`super::Status::MapUnconfirmed`] instead of tracking, so nobody takes
-//! the pose for what it claims.
+//! landmarks all fit, until the share falls below `min_recent_fraction` or a second scan
+//! whose landmarks mostly misfit comes before one whose two or more all fit (below); then,
+//! and when that first scan does not fit whole, only again once the landmarks have fitted
+//! over `confirm_distance_m` driven: the scanner has then seen new landmarks, which a wrong
+//! map or a wrong alignment would not explain. While it is not, the localizer goes on
+//! matching (its pose is still the best it has) but reports
+//! [`super::Status::MapUnconfirmed`] instead of tracking, so nobody takes the pose for what
+//! it claims.
+//!
+//! A scan is trusted on its own only when at least `min_scan_fraction` of its clusters are
+//! explained and, if the map leaves any unexplained, the clusters on the map's landmarks
+//! outnumber them: a cluster a wall alone explains is a bump of the wall to the map and
+//! counts for neither side (half a scan's landmarks fitting is what the first scan after a
+//! jump of a few spacings can show). A jump the odometry did not see (a tow, a slide) shows first
+//! as a scan whose two or more landmarks mostly misfit; where the map's landmarks look
+//! alike a few spacings away, the scans after it fit in part, scan by scan, while the
+//! running share is still high. So after such a scan only one whose two or more landmarks
+//! all fit is trusted, and a second misfit before it costs the map's trust at once. One
+//! damaged landmark among others in view does neither.
 //!
 //! Walls take no part: every tunnel has two, and a foreign map of the same width explains
 //! them as well as the right one.
@@ -212,6 +224,8 @@ pub struct IntegrityMonitor {
     started: bool,
     /// Odometer reading where the current run of fitting scans began (while distrusted).
     confirm_from_m: Option<f32>,
+    /// A scan's landmarks mostly misfitted, and none has fitted whole since.
+    misfit_pending: bool,
 }
 
 impl IntegrityMonitor {
@@ -222,6 +236,7 @@ impl IntegrityMonitor {
         distrusted: false,
         started: false,
         confirm_from_m: None,
+        misfit_pending: false,
     };
 
     /// A monitor that does not trust the map until the landmarks have fitted it over
@@ -265,16 +280,32 @@ impl IntegrityMonitor {
         }
         // One scan whose landmarks mostly misfit is not trusted on its own either — even a
         // single landmark in view: after a kidnapping it is the first sign, while the walls
-        // still fit and the running share is still high.
+        // still fit and the running share is still high. Those the map does not explain must
+        // be outnumbered by clusters on its landmarks (a wall alone explains bumps too).
+        let unexplained = integrity
+            .clusters
+            .saturating_sub(integrity.clusters_explained);
         let scan_ok = integrity.clusters == 0
-            || f32::from(integrity.clusters_explained)
-                >= config.min_scan_fraction * f32::from(integrity.clusters);
+            || (f32::from(integrity.clusters_explained)
+                >= config.min_scan_fraction * f32::from(integrity.clusters)
+                && (unexplained == 0 || integrity.clusters_on_landmarks > unexplained));
+        // Two or more landmarks mostly misfitting: the first sign of a jump. A second such
+        // scan before one that fits whole costs the map's trust at once, not after the
+        // running share has fallen (≈ 16 scans, in which a look-alike stretch of landmarks
+        // can fit in part); until then, only a scan that fits whole is trusted.
+        let misfit = integrity.clusters >= 2
+            && f32::from(integrity.clusters_explained)
+                < config.min_scan_fraction * f32::from(integrity.clusters);
+        let fits_whole = integrity.clusters >= 2 && unexplained == 0;
+        let held = self.misfit_pending && !fits_whole;
+        let second_misfit = misfit && self.misfit_pending;
+        self.misfit_pending = misfit || held;
         if !self.distrusted {
-            if !recent_ok {
+            if !recent_ok || second_misfit {
                 self.distrusted = true;
                 self.confirm_from_m = None;
             }
-            return !self.distrusted && scan_ok;
+            return !self.distrusted && scan_ok && !held;
         }
         let fits = integrity.clusters >= 2
             && f32::from(integrity.clusters_explained)
@@ -319,6 +350,7 @@ mod tests {
         Integrity {
             clusters,
             clusters_explained: explained,
+            clusters_on_landmarks: explained,
             ..Integrity::default()
         }
     }
@@ -403,12 +435,16 @@ mod tests {
         for _ in 0..10 {
             assert!(d.scan(3, 2));
         }
-        // One scan whose landmarks mostly misfit is not trusted, the map still is.
+        // One scan whose landmarks mostly misfit is not trusted, the map still is; nor is
+        // what follows until a scan fits whole.
         assert!(!d.scan(4, 1));
         assert!(d.monitor.is_trusted());
-        // Scan after scan of that: the share sinks and the map loses trust.
+        assert!(!d.scan(3, 2) && !d.scan(0, 0));
+        assert!(d.scan(3, 3) && d.scan(3, 2));
+        // Scan after scan of a single landmark that misfits: the share sinks and the map
+        // loses trust.
         let lost_after = (0..40).position(|_| {
-            d.scan(3, 1);
+            d.scan(1, 0);
             !d.monitor.is_trusted()
         });
         assert!(matches!(lost_after, Some(1..=20)), "{lost_after:?}");
@@ -428,6 +464,64 @@ mod tests {
         let before = d.monitor.recent_fraction();
         assert!(d.scan(0, 0));
         assert_eq!(d.monitor.recent_fraction(), before);
+    }
+
+    /// A kidnapping: the first scan after the jump misfits; the next ones fit in part where
+    /// the map's landmarks look alike.
+    #[test]
+    fn a_second_misfitting_scan_before_a_whole_fit_loses_trust_at_once() {
+        let mut d = Drive::new();
+        for _ in 0..50 {
+            assert!(d.scan(4, 4));
+        }
+        assert!(!d.scan(5, 0));
+        assert!(d.monitor.is_trusted());
+        // Fits in part, or no landmark: not trusted; the map still is.
+        assert!(!d.scan(4, 2) && !d.scan(0, 0) && !d.scan(1, 1));
+        assert!(d.monitor.is_trusted());
+        // A second misfit before a whole fit: the map is not trusted until confirmed anew.
+        assert!(!d.scan(5, 2));
+        assert!(!d.monitor.is_trusted());
+        assert!(!d.scan(4, 4));
+        // Whereas a whole fit between two misfits (two damaged landmarks passed one after
+        // the other) keeps it.
+        let mut d = Drive::new();
+        for _ in 0..50 {
+            assert!(d.scan(4, 4));
+        }
+        assert!(!d.scan(3, 1));
+        assert!(d.scan(4, 4));
+        assert!(!d.scan(3, 1));
+        assert!(d.monitor.is_trusted());
+    }
+
+    /// Clusters a wall alone explains (bumps, to the map) do not outweigh those nothing
+    /// explains: after a jump, landmark points near a wall's line fit it.
+    #[test]
+    fn clusters_on_walls_alone_do_not_outweigh_misfits() {
+        let mut d = Drive::new();
+        for _ in 0..50 {
+            assert!(d.scan(4, 4));
+        }
+        let on_walls = |clusters, explained, on_landmarks| Integrity {
+            clusters,
+            clusters_explained: explained,
+            clusters_on_landmarks: on_landmarks,
+            ..Integrity::default()
+        };
+        let mut observe = |i: Integrity| {
+            d.odometer_m += 0.04;
+            d.monitor.observe(&i, d.odometer_m, &d.config)
+        };
+        // 4 of 7 explained, 3 of them by a wall alone: not trusted.
+        assert!(!observe(on_walls(7, 4, 1)));
+        // Every cluster explained, one by a wall alone: trusted.
+        assert!(observe(on_walls(3, 3, 2)));
+        // One unexplained: on landmarks, one is not enough, two are.
+        assert!(!observe(on_walls(3, 2, 1)));
+        assert!(observe(on_walls(4, 3, 2)));
+        // Half on landmarks, half unexplained: not trusted.
+        assert!(!observe(on_walls(4, 2, 2)));
     }
 
     #[test]
