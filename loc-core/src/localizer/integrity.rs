@@ -29,7 +29,8 @@
 //! alike a few spacings away, the scans after it fit in part, scan by scan, while the
 //! running share is still high. So after such a scan only one whose two or more landmarks
 //! all fit is trusted, and a second misfit before it costs the map's trust at once. One
-//! damaged landmark among others in view does neither.
+//! damaged landmark among others in view does neither. Both rules apply on a map with
+//! landmarks only: on a bare one every cluster is a bump of the wall, a person or dust.
 //!
 //! Walls take no part: every tunnel has two, and a foreign map of the same width explains
 //! them as well as the right one.
@@ -115,6 +116,9 @@ pub struct Integrity {
     /// only: a bump of the wall labelled as a landmark fits the map too, and is all a bare
     /// tunnel has).
     pub clusters_on_landmarks: u8,
+    /// The map has landmarks to judge the clusters by (without, every cluster is a bump of
+    /// the wall or something in the tunnel, and says nothing of a jump).
+    pub map_has_landmarks: bool,
 }
 
 /// A run of landmark points being gathered: points, points checked against the map, of
@@ -140,7 +144,10 @@ impl Integrity {
         config: &IntegrityConfig,
     ) -> Self {
         let to_world = pose.transform();
-        let mut out = Self::default();
+        let mut out = Self {
+            map_has_landmarks: map.landmark_count() > 0,
+            ..Self::default()
+        };
         // The map searches are the cost: at most `max_checked_points`, evenly spread.
         let landmarks = labels
             .iter()
@@ -281,19 +288,25 @@ impl IntegrityMonitor {
         // One scan whose landmarks mostly misfit is not trusted on its own either — even a
         // single landmark in view: after a kidnapping it is the first sign, while the walls
         // still fit and the running share is still high. Those the map does not explain must
-        // be outnumbered by clusters on its landmarks (a wall alone explains bumps too).
+        // be outnumbered by clusters on its landmarks (a wall alone explains bumps too),
+        // where it has landmarks.
         let unexplained = integrity
             .clusters
             .saturating_sub(integrity.clusters_explained);
+        let landmarks_outnumber = !integrity.map_has_landmarks
+            || unexplained == 0
+            || integrity.clusters_on_landmarks > unexplained;
         let scan_ok = integrity.clusters == 0
             || (f32::from(integrity.clusters_explained)
                 >= config.min_scan_fraction * f32::from(integrity.clusters)
-                && (unexplained == 0 || integrity.clusters_on_landmarks > unexplained));
-        // Two or more landmarks mostly misfitting: the first sign of a jump. A second such
+                && landmarks_outnumber);
+        // Two or more landmarks mostly misfitting (on a map with landmarks: in a bare tunnel
+        // they are bumps of the wall, people, dust): the first sign of a jump. A second such
         // scan before one that fits whole costs the map's trust at once, not after the
         // running share has fallen (≈ 16 scans, in which a look-alike stretch of landmarks
         // can fit in part); until then, only a scan that fits whole is trusted.
-        let misfit = integrity.clusters >= 2
+        let misfit = integrity.map_has_landmarks
+            && integrity.clusters >= 2
             && f32::from(integrity.clusters_explained)
                 < config.min_scan_fraction * f32::from(integrity.clusters);
         let fits_whole = integrity.clusters >= 2 && unexplained == 0;
@@ -351,6 +364,7 @@ mod tests {
             clusters,
             clusters_explained: explained,
             clusters_on_landmarks: explained,
+            map_has_landmarks: true,
             ..Integrity::default()
         }
     }
@@ -495,6 +509,30 @@ mod tests {
         assert!(d.monitor.is_trusted());
     }
 
+    /// On a map without landmarks every cluster is a bump of the wall (or a person, dust):
+    /// it fits a wall or nothing, and says nothing of a jump.
+    #[test]
+    fn on_a_map_without_landmarks_misfits_are_no_sign_of_a_jump() {
+        let mut d = Drive::new();
+        let bare = |clusters, explained| Integrity {
+            clusters,
+            clusters_explained: explained,
+            ..Integrity::default()
+        };
+        let mut observe = |i: Integrity| {
+            d.odometer_m += 0.04;
+            d.monitor.observe(&i, d.odometer_m, &d.config)
+        };
+        for _ in 0..50 {
+            assert!(observe(bare(2, 2)));
+        }
+        // Two of three bumps on a wall, one off it: trusted.
+        assert!(observe(bare(3, 2)));
+        // Two scans of bumps mostly off the walls: neither trusted, the map still is.
+        assert!(!observe(bare(3, 1)) && !observe(bare(3, 1)));
+        assert!(observe(bare(3, 2)));
+    }
+
     /// Clusters a wall alone explains (bumps, to the map) do not outweigh those nothing
     /// explains: after a jump, landmark points near a wall's line fit it.
     #[test]
@@ -507,6 +545,7 @@ mod tests {
             clusters,
             clusters_explained: explained,
             clusters_on_landmarks: on_landmarks,
+            map_has_landmarks: true,
             ..Integrity::default()
         };
         let mut observe = |i: Integrity| {
