@@ -23,14 +23,15 @@
 //! A scan is trusted on its own only when at least `min_scan_fraction` of its clusters are
 //! explained and, if the map leaves any unexplained, the clusters on the map's landmarks
 //! outnumber them: a cluster a wall alone explains is a bump of the wall to the map and
-//! counts for neither side (half a scan's landmarks fitting is what the first scan after a
-//! jump of a few spacings can show). A jump the odometry did not see (a tow, a slide) shows first
-//! as a scan whose two or more landmarks mostly misfit; where the map's landmarks look
-//! alike a few spacings away, the scans after it fit in part, scan by scan, while the
-//! running share is still high. So after such a scan only one whose two or more landmarks
-//! all fit is trusted, and a second misfit before it costs the map's trust at once. One
-//! damaged landmark among others in view does neither. Both rules apply on a map with
-//! landmarks only: on a bare one every cluster is a bump of the wall, a person or dust.
+//! counts for neither side (half a scan's landmarks fitting is what the first scan after
+//! a jump of a few spacings can show). A jump the odometry did not see (a tow, a slide)
+//! shows first as a scan whose two or more landmarks mostly misfit; where the map's
+//! landmarks look alike a few spacings away, the scans after it fit in part, scan by
+//! scan, while the running share is still high. So after such a scan only one whose two
+//! or more landmarks all fit is trusted, and a second misfit before it costs the map's
+//! trust at once. One damaged landmark among others in view does neither. Both rules
+//! apply on a map with landmarks only: on a bare one every cluster is a bump of the wall,
+//! a person or dust.
 //!
 //! Walls take no part: every tunnel has two, and a foreign map of the same width explains
 //! them as well as the right one.
