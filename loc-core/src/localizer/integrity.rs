@@ -297,19 +297,15 @@ impl IntegrityMonitor {
         let landmarks_outnumber = !integrity.map_has_landmarks
             || unexplained == 0
             || integrity.clusters_on_landmarks > unexplained;
-        let scan_ok = integrity.clusters == 0
-            || (f32::from(integrity.clusters_explained)
-                >= config.min_scan_fraction * f32::from(integrity.clusters)
-                && landmarks_outnumber);
+        let mostly_explained = f32::from(integrity.clusters_explained)
+            >= config.min_scan_fraction * f32::from(integrity.clusters);
+        let scan_ok = integrity.clusters == 0 || (mostly_explained && landmarks_outnumber);
         // Two or more landmarks mostly misfitting (on a map with landmarks: in a bare tunnel
         // they are bumps of the wall, people, dust): the first sign of a jump. A second such
         // scan before one that fits whole costs the map's trust at once, not after the
         // running share has fallen (≈ 16 scans, in which a look-alike stretch of landmarks
         // can fit in part); until then, only a scan that fits whole is trusted.
-        let misfit = integrity.map_has_landmarks
-            && integrity.clusters >= 2
-            && f32::from(integrity.clusters_explained)
-                < config.min_scan_fraction * f32::from(integrity.clusters);
+        let misfit = integrity.map_has_landmarks && integrity.clusters >= 2 && !mostly_explained;
         let fits_whole = integrity.clusters >= 2 && unexplained == 0;
         let held = self.misfit_pending && !fits_whole;
         let second_misfit = misfit && self.misfit_pending;
