@@ -461,6 +461,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         if updated.is_ok() && !self.relocalising {
             // What this scan says of its landmarks' offsets, for the matches to come.
             self.workspace.learn_landmark_offsets(
+                self.map,
                 &self.match_points,
                 ekf.pose(),
                 &ekf.covariance(),

@@ -5,7 +5,7 @@
 use super::association::{select_k_best, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
 use super::landmark_gate;
-use super::landmark_offsets::OffsetPriors;
+use super::landmark_offsets::{LandmarkAnchors, OffsetPriors};
 use super::misfit::{unpair_landmarks, Misfits};
 use super::roughness::RoughWalls;
 use super::{
@@ -56,6 +56,8 @@ pub(super) fn run<M: MapQuery>(
     let mut converged = false;
     // Landmarks left out once the match had converged (see `misfit`); judged once.
     let mut misfits: Option<Misfits> = None;
+    // Each landmark's anchor, looked up once for the whole match.
+    let mut anchors = LandmarkAnchors::new(initial);
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
         let mut associated = schedule.run(map, points, pose, config.association_gate_m, assoc);
@@ -143,10 +145,11 @@ pub(super) fn run<M: MapQuery>(
                             .enumerate()
                             .filter(|&(i, a)| a.associated() && is_chosen(i));
                         let mut priors = OffsetPriors::new(offsets);
+                        anchors.place(pose);
                         for (_, a) in selected {
                             let r = a.residual_m();
                             let p = points.get(usize::from(a.point)).copied();
-                            let p = p.unwrap_or(Point2::ORIGIN);
+                            let p = anchors.point(map, a.landmark(), p.unwrap_or(Point2::ORIGIN));
                             priors.before_point(rw, &mut eq, a.landmark(), p, w_unit);
                             rw.add(&mut eq, p, a.world, t, a.normal, r, weight(r), w_unit);
                         }

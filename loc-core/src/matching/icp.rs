@@ -4,7 +4,7 @@
 
 use super::association::{Association, AssociationSchedule};
 use super::information::{truncated_step, NormalEquations};
-use super::landmark_offsets::{LandmarkOffsets, OffsetPriors};
+use super::landmark_offsets::{LandmarkAnchors, LandmarkOffsets, OffsetPriors};
 use super::roughness::RoughWalls;
 use super::{
     apply_step, conclude, out_of_work, step_size, MatchConfig, MatchError, Outcome, Steps,
@@ -33,6 +33,8 @@ pub(super) fn run<M: MapQuery>(
     let mut steps = Steps::new();
     let mut iterations = 0u16;
     let mut converged = false;
+    // Each landmark's anchor, looked up once for the whole match.
+    let mut anchors = LandmarkAnchors::new(initial);
     for it in 1..=config.max_iterations.max(1) {
         iterations = it;
         schedule.run(map, points, pose, gate, assoc);
@@ -54,9 +56,10 @@ pub(super) fn run<M: MapQuery>(
             }
             Some(rw) => {
                 let mut priors = OffsetPriors::new(offsets);
+                anchors.place(pose);
                 for a in inliers {
                     let p = points.get(usize::from(a.point)).copied();
-                    let p = p.unwrap_or(Point2::ORIGIN);
+                    let p = anchors.point(map, a.landmark(), p.unwrap_or(Point2::ORIGIN));
                     priors.before_point(rw, &mut eq, a.landmark(), p, 1.0);
                     rw.add(&mut eq, p, a.world, t, a.normal, a.residual_m(), 1.0, 1.0);
                 }

@@ -46,6 +46,7 @@ use super::information::NormalEquations;
 use super::roughness::{OffsetEstimate, RoughWalls};
 use super::MatchConfig;
 use crate::geometry::{Point2, Pose2, PoseTransform};
+use crate::map::MapQuery;
 
 /// Landmarks whose offsets are remembered at once (the ones seen recently: a scan sees
 /// about a dozen of them). Each slot takes 20 bytes.
@@ -219,8 +220,9 @@ impl LandmarkOffsets {
     /// in scan order, and at each landmark's last point (at least three on it)
     /// the filter's estimate of the offset there — the landmark's points and the wall
     /// before them — is a reading. Only every [`READ_EVERY_SCANS`]-th scan offered is read.
-    pub fn observe(
+    pub fn observe<M: MapQuery>(
         &mut self,
+        map: &M,
         assoc: &[Association],
         points: &[Point2],
         pose: Pose2,
@@ -247,6 +249,7 @@ impl LandmarkOffsets {
             config.association_gate_m
         };
         let at_pose = PointsAtPose::new(pose, points, limit_m);
+        let mut anchors = LandmarkAnchors::new(pose);
         // The landmark being read: its index, points so far and last point.
         let mut run: Option<(u16, u16, Point2)> = None;
         let mut read = |walls: &mut RoughWalls, run: Option<(u16, u16, Point2)>| {
@@ -260,6 +263,7 @@ impl LandmarkOffsets {
             if run.is_some_and(|(id, _, _)| landmark != Some(id)) {
                 read(&mut walls, run.take());
             }
+            let p = anchors.point(map, landmark, p);
             if let Some(id) = landmark {
                 let n = run.map_or(0, |(_, n, _)| n);
                 run = Some((id, n.saturating_add(1), p));
@@ -303,6 +307,88 @@ impl<'a> PointsAtPose<'a> {
         let pr = a.segment.project_with_normal(q, a.line_normal);
         let paired = paired(q, a.segment, pr, a.pairing);
         (crate::math::abs(paired.residual_m()) <= self.limit_m).then_some((a, p, q, paired))
+    }
+}
+
+/// Where a landmark's points sit in the walls' offset chain ([`RoughWalls`]). A landmark is
+/// rigid, mounted whole where its anchor (its base's centre) meets the rough wall, so every
+/// point of it carries the wall's offset there — not the offset of the wall behind the
+/// point, which would let its two flanks differ by the roughness between them. Landmark
+/// points are moved along the vehicle's x to their anchor's; wall points stay as they are.
+pub(crate) struct LandmarkAnchors {
+    t: Point2,
+    sin_cos: (f32, f32),
+    /// Anchors looked up so far (world frame): a match looks each landmark up once, not
+    /// once per iteration.
+    anchors: [(u16, Point2); ANCHORS],
+    len: usize,
+    /// The last landmark and its anchor's x (vehicle frame), metres: a landmark's points
+    /// come in a run.
+    last: Option<(u16, f32)>,
+}
+
+/// Landmarks whose anchors a match keeps (a scan sees a handful; more are looked up again).
+const ANCHORS: usize = 8;
+
+impl LandmarkAnchors {
+    /// For points placed at `pose` (world frame).
+    pub(crate) fn new(pose: Pose2) -> Self {
+        let mut a = Self {
+            t: Point2::ORIGIN,
+            sin_cos: (0.0, 1.0),
+            anchors: [(0, Point2::ORIGIN); ANCHORS],
+            len: 0,
+            last: None,
+        };
+        a.place(pose);
+        a
+    }
+
+    /// Places the points at `pose` from now on (the next iteration of a match); the anchors
+    /// looked up are kept.
+    pub(crate) fn place(&mut self, pose: Pose2) {
+        self.t = pose.translation();
+        self.sin_cos = crate::math::sin_cos(pose.theta_rad);
+        self.last = None;
+    }
+
+    /// Vehicle-frame point `p`, paired with map landmark `landmark` (none: a wall), as the
+    /// offset chain takes it.
+    pub(crate) fn point<M: MapQuery>(
+        &mut self,
+        map: &M,
+        landmark: Option<u16>,
+        p: Point2,
+    ) -> Point2 {
+        let Some(id) = landmark else {
+            return p;
+        };
+        let x_m = match self.last {
+            Some((last, x_m)) if last == id => x_m,
+            _ => {
+                let kept = self.anchors.iter().take(self.len).find(|(i, _)| *i == id);
+                let anchor = match kept {
+                    Some(&(_, anchor)) => anchor,
+                    None => {
+                        let Some(base) = map.landmark_base(id) else {
+                            return p;
+                        };
+                        let anchor = base.anchor();
+                        if let Some(slot) = self.anchors.get_mut(self.len) {
+                            *slot = (id, anchor);
+                            self.len += 1;
+                        }
+                        anchor
+                    }
+                };
+                let w = anchor.sub(self.t);
+                let (s, c) = self.sin_cos;
+                let x_m = c * w.x_m + s * w.y_m;
+                self.last = Some((id, x_m));
+                x_m
+            }
+        };
+        Point2::new(x_m, p.y_m)
     }
 }
 

@@ -464,8 +464,9 @@ impl MatchWorkspace {
     /// Reads the landmarks' offsets from the last match run with this workspace, on
     /// `points` (the points it matched, vehicle frame), at the updated `pose` and its
     /// `covariance` (world frame): see [`LandmarkOffsets::observe`].
-    pub fn learn_landmark_offsets(
+    pub fn learn_landmark_offsets<M: MapQuery>(
         &mut self,
+        map: &M,
         points: &[Point2],
         pose: Pose2,
         covariance: &Matrix3<f32>,
@@ -473,7 +474,7 @@ impl MatchWorkspace {
     ) {
         let assoc = self.assoc.get(..points.len()).unwrap_or_default();
         self.landmark_offsets
-            .observe(assoc, points, pose, covariance, config);
+            .observe(map, assoc, points, pose, covariance, config);
     }
 
     /// Forgets what was learnt of the landmarks — their offsets and those the gate left

@@ -474,7 +474,7 @@ fn known_landmark_offsets_keep_the_match_from_drawing_along() {
     for seed in 0..8 {
         let pts = selected_points(&world, truth, 100 + seed, 64);
         match_scan(&map, &pts, truth, &cfg, &mut workspace).unwrap();
-        workspace.learn_landmark_offsets(&pts, truth, &known, &cfg);
+        workspace.learn_landmark_offsets(&map, &pts, truth, &known, &cfg);
     }
     let (_, abreast) = workspace.landmark_offsets().find(3).unwrap();
     assert!(
