@@ -506,7 +506,10 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         }
         // Whether the map explains the landmarks decides whether the pose may be called
         // tracked (part of the update stage).
-        let integrity = Integrity::check(self.map, points, labels, result.pose, &cfg.integrity);
+        let integrity = Integrity {
+            match_stopped_short: result.unconverged_sd_m > cfg.update.min_measurement_sd_m,
+            ..Integrity::check(self.map, points, labels, result.pose, &cfg.integrity)
+        };
         self.last_integrity = Some(integrity);
         let trusted = self
             .integrity_monitor

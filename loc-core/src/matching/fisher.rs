@@ -12,6 +12,7 @@ use nalgebra::Matrix3;
 
 use super::association::{paired, Pairing};
 use super::information::NormalEquations;
+use super::landmark_offsets::LandmarkAnchors;
 use super::roughness::RoughWalls;
 use super::MatchConfig;
 use crate::geometry::{Point2, Pose2};
@@ -42,8 +43,9 @@ impl ScanInformation {
 
 /// The information of `points` (vehicle frame) at `pose` (world frame) against `map`: each
 /// point within `gate_m` of map geometry adds its point-to-line Jacobian, wall stretches
-/// share their roughness offset (`config.roughness`), all in units of `config`'s range
-/// noise.
+/// share their roughness offset (`config.roughness`) and a landmark's points the offset at
+/// its anchor (as the matchers take them: [`LandmarkAnchors`]), all in units of `config`'s
+/// range noise.
 pub fn scan_information<M: MapQuery, P: VehiclePoint>(
     map: &M,
     points: &[P],
@@ -52,6 +54,7 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
     gate_m: f32,
 ) -> ScanInformation {
     let (s, c) = crate::math::sin_cos(pose.theta_rad);
+    let mut anchors = LandmarkAnchors::new(pose);
     let pairs = points.iter().filter_map(|p| {
         let p = p.vehicle_point();
         let q = Point2::new(
@@ -63,20 +66,32 @@ pub fn scan_information<M: MapQuery, P: VehiclePoint>(
             return None;
         }
         // The residual's normal exactly as the matchers pair the point.
-        Some((
-            p,
-            paired(q, hit.segment, hit.projection, Pairing::of(hit.kind)).normal,
-        ))
+        let pairing = Pairing::of(hit.kind);
+        let normal = paired(q, hit.segment, hit.projection, pairing).normal;
+        let along_wall = anchors.point(map, pairing.landmark_id(), p);
+        Some((p, along_wall, normal))
     });
-    paired_information(pairs, pose, config)
+    accumulate(pairs, pose, config)
 }
 
 /// The information of points already paired with their map geometry: each item is a point
 /// in the vehicle frame and the world-frame unit normal of the line it lies on (at `pose`,
-/// world frame). The accumulation [`scan_information`] ends with; for callers that know the
-/// pairing from the geometry itself (landmark design's Fisher objective), with no map search.
+/// world frame), each point where it lies on its wall. The accumulation [`scan_information`]
+/// ends with; for callers that know the pairing from the geometry itself (landmark design's
+/// Fisher objective), with no map search.
 pub fn paired_information(
     pairs: impl Iterator<Item = (Point2, Point2)>,
+    pose: Pose2,
+    config: &MatchConfig,
+) -> ScanInformation {
+    accumulate(pairs.map(|(p, n)| (p, p, n)), pose, config)
+}
+
+/// The accumulation: each item is a vehicle-frame point, where the walls' offset chain
+/// takes it (a landmark's anchor, see [`LandmarkAnchors`]; the point itself on a wall) and
+/// its world-frame unit normal.
+fn accumulate(
+    items: impl Iterator<Item = (Point2, Point2, Point2)>,
     pose: Pose2,
     config: &MatchConfig,
 ) -> ScanInformation {
@@ -85,13 +100,13 @@ pub fn paired_information(
     let mut walls = RoughWalls::new(&config.roughness, sigma, pose.theta_rad);
     let (s, c) = crate::math::sin_cos(pose.theta_rad);
     let t = pose.translation();
-    for (p, n) in pairs {
+    for (p, along_wall, n) in items {
         let q = Point2::new(
             c * p.x_m - s * p.y_m + pose.x_m,
             s * p.x_m + c * p.y_m + pose.y_m,
         );
         match walls.as_mut() {
-            Some(rw) => rw.add(&mut eq, p, q, t, n, 0.0, 1.0, 1.0),
+            Some(rw) => rw.add(&mut eq, along_wall, q, t, n, 0.0, 1.0, 1.0),
             None => {
                 eq.add(q, t, n, 0.0, 1.0);
             }

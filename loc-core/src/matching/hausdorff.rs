@@ -56,6 +56,8 @@ pub(super) fn run<M: MapQuery>(
     let mut converged = false;
     // Landmarks left out once the match had converged (see `misfit`); judged once.
     let mut misfits: Option<Misfits> = None;
+    // How far misfits found too late to leave out may have drawn the match, metres.
+    let mut misfit_pull_m = 0.0f32;
     // Each landmark's anchor, looked up once for the whole match.
     let mut anchors = LandmarkAnchors::new(initial);
     for it in 1..=config.max_iterations.max(1) {
@@ -206,6 +208,12 @@ pub(super) fn run<M: MapQuery>(
             } else {
                 0
             };
+            if !room && !found.is_empty() {
+                // No work left to converge without the misfits: the optimum is theirs as
+                // much as the map's, and the match is trusted only to within how far it
+                // moved from where it started.
+                misfit_pull_m = pose_distance_m(&initial, best_pose, config);
+            }
             misfits = Some(found);
             if left_out > 0 {
                 k = k.min(m.saturating_sub(left_out)).max(1);
@@ -237,7 +245,14 @@ pub(super) fn run<M: MapQuery>(
         }
         pose = apply_step(*best_pose, &step);
     }
-    conclude(
+    if misfits.is_none() && explained_m > 0.0 && !Misfits::find(assoc, explained_m).is_empty() {
+        // Stopped before its optimum with a landmark not as mapped in it (the check runs at
+        // the optimum): as above.
+        if let Some((best_pose, _, _)) = best.as_ref() {
+            misfit_pull_m = pose_distance_m(&initial, best_pose, config);
+        }
+    }
+    let mut outcome = conclude(
         best,
         iterations,
         schedule.work(),
@@ -245,7 +260,20 @@ pub(super) fn run<M: MapQuery>(
         converged,
         required,
         config,
-    )
+    )?;
+    outcome.unconverged_sd_m = math::hypot(outcome.unconverged_sd_m, misfit_pull_m);
+    Ok(outcome)
+}
+
+/// The distance between two poses, metres, the rotation counted at the configuration's
+/// `rotation_scale_m` (as a step's length is).
+fn pose_distance_m(a: &Pose2, b: &Pose2, config: &MatchConfig) -> f32 {
+    let step = Vector3::new(
+        b.x_m - a.x_m,
+        b.y_m - a.y_m,
+        math::wrap_angle(b.theta_rad - a.theta_rad),
+    );
+    step_size(&step, config).1
 }
 
 /// Whether `step` goes back the way `previous` came: their directions more than ~145°

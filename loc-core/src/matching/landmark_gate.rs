@@ -2,13 +2,12 @@
 //! disagrees with where the filter knew the vehicle to be is not as mapped, and the match
 //! leaves it out.
 //!
-//! [`super::misfit`] judges a landmark by how far its points lie from it at the optimum, and
-//! only beside a landmark that fits. Neither catches a sawtooth displaced across the wall:
-//! its points still lie near *some* face (the profile repeats every tooth), and where two
-//! or three damaged landmarks follow one another none fits to judge them by. On the
-//! S-bend's seed 3 the landmarks at 155.9 and 164.0 m stand 95 mm proud and the one at
-//! 160.0 m 56 mm: each asked the match for 40–90 mm along the tunnel where the intact one
-//! beside them asked 0–5 mm, and the pose went 30–35 mm off along while claiming 4 mm.
+//! [`super::misfit`] judges a landmark by how far its points lie from it at the optimum. It
+//! does not catch a sawtooth displaced across the wall: its points still lie near *some*
+//! face (the profile repeats every tooth). On the S-bend's seed 3 the landmarks at 155.9
+//! and 164.0 m stand 95 mm proud and the one at 160.0 m 56 mm: each asked the match for
+//! 40–90 mm along the tunnel where the intact one beside them asked 0–5 mm, and the pose
+//! went 30–35 mm off along while claiming 4 mm.
 //!
 //! Here each landmark's paired points give the correction that landmark alone asks for:
 //! one reweighted least-squares step from the match's optimum with the Hausdorff match's
@@ -20,7 +19,7 @@
 //! (`A = Σ w n nᵀ`, `m` the wall's normal; nothing along a sawtooth seen on both slants,
 //! much on one). Beyond the chi-square gate ([`GateProbability::P999`], one degree of
 //! freedom per observed direction) the landmark is left out, and remembered
-//! ([`GateMemory`]). As in `misfit`, a landmark is judged against one that fits: when no
+//! ([`GateMemory`]). A landmark is judged against one that agrees: when no
 //! landmark agrees with the prediction, the prediction is what is off (a vehicle moved where
 //! its odometry did not see, whose landmarks must not be refused in place of its match),
 //! and nothing is left out.

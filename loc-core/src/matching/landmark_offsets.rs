@@ -315,6 +315,8 @@ impl<'a> PointsAtPose<'a> {
 /// point of it carries the wall's offset there — not the offset of the wall behind the
 /// point, which would let its two flanks differ by the roughness between them. Landmark
 /// points are moved along the vehicle's x to their anchor's; wall points stay as they are.
+/// The matches' accumulations, the offsets' reading ([`LandmarkOffsets::observe`]) and the
+/// Cramér–Rao bound ([`super::scan_information`]) all place them so.
 pub(crate) struct LandmarkAnchors {
     t: Point2,
     sin_cos: (f32, f32),

@@ -405,6 +405,59 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
     assert!(sum_m / 8.0 < 0.0045, "mean along error {} m", sum_m / 8.0);
 }
 
+/// The same bent landmark with the match's work budget cut anywhere from a few iterations
+/// to a full match: one stopped with the misfit still in it (found too late to leave out,
+/// or before its optimum, where misfits are judged) reports how far it moved as still to
+/// go, and its claim covers its error.
+#[test]
+fn a_match_stopped_with_a_bent_landmark_in_it_does_not_claim_millimetres() {
+    let map = BruteMap::tunnel(true);
+    let mut world = BruteMap::tunnel(true);
+    let bent = FeatureKind::Landmark { id: 3 };
+    let root = world
+        .segs
+        .iter()
+        .find(|(_, k)| *k == bent)
+        .map(|(s, _)| s.a)
+        .unwrap();
+    let (s, c) = 10f32.to_radians().sin_cos();
+    for (seg, k) in world.segs.iter_mut() {
+        if *k == bent {
+            let turn = |p: Point2| {
+                let d = p.sub(root);
+                Point2::new(
+                    root.x_m + c * d.x_m - s * d.y_m,
+                    root.y_m + s * d.x_m + c * d.y_m,
+                )
+            };
+            *seg = Segment::new(turn(seg.a), turn(seg.b));
+        }
+    }
+    let truth = Pose2::new(19.0, 0.2, 0.01);
+    let guess = Pose2::new(19.04, 0.21, 0.011);
+    let mut worst = 0.0f32;
+    for budget in (100..=1500).step_by(50) {
+        let cfg = MatchConfig {
+            roughness: RoughnessModel {
+                sigma_m: 0.005,
+                correlation_m: 0.5,
+            },
+            max_work: budget,
+            ..MatchConfig::default()
+        };
+        for seed in 0..4 {
+            let pts = selected_points(&world, truth, seed, 512);
+            let Ok(r) = match_scan(&map, &pts, guess, &cfg, &mut MatchWorkspace::new()) else {
+                continue;
+            };
+            let along_m = r.pose.x_m - truth.x_m;
+            let sd_m = r.covariance.m11.sqrt();
+            worst = worst.max(along_m.abs() / sd_m);
+        }
+    }
+    assert!(worst < 3.0, "worst along error {worst} σ");
+}
+
 /// What a localiser matches of `world`'s scan at `truth` (1 cm range noise, `seed`):
 /// stripped, then 100 wall points and up to `landmark_points` landmark points.
 fn selected_points(world: &BruteMap, truth: Pose2, seed: u64, landmark_points: u16) -> MatchPoints {
