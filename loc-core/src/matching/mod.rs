@@ -330,9 +330,11 @@ pub struct MatchResult {
     /// 0 for a match that converged; for one stopped by the work budget or the iteration
     /// limit while still stepping, an allowance for the distance still to go, metres (its
     /// last step times one to nine, by how fast its steps were shrinking; rotation counted
-    /// at `rotation_scale_m`). It is in `covariance`, and the filter adds it to the
-    /// measurement noise of every observed direction, so a match cut short is trusted
-    /// only as far as it got.
+    /// at `rotation_scale_m`). A Hausdorff match that stopped with a landmark not as
+    /// mapped still in it (found with no work left to converge without it, or never
+    /// judged: see `misfit`) adds how far it moved from its start. It is in `covariance`,
+    /// and the filter adds it to the measurement noise of every observed direction, so a
+    /// match cut short is trusted only as far as it got.
     pub unconverged_sd_m: f32,
     /// Final cost, metres: the trimmed mean or K-th distance (Hausdorff), RMS residual (ICP).
     pub cost_m: f32,

@@ -359,27 +359,7 @@ fn bad_inputs_are_errors_not_panics() {
 #[test]
 fn a_bent_landmark_does_not_draw_the_match_along() {
     let map = BruteMap::tunnel(true);
-    let mut world = BruteMap::tunnel(true);
-    let bent = FeatureKind::Landmark { id: 3 };
-    let root = world
-        .segs
-        .iter()
-        .find(|(_, k)| *k == bent)
-        .map(|(s, _)| s.a)
-        .unwrap();
-    let (s, c) = 10f32.to_radians().sin_cos();
-    let turn = |p: Point2| {
-        let d = p.sub(root);
-        Point2::new(
-            root.x_m + c * d.x_m - s * d.y_m,
-            root.y_m + s * d.x_m + c * d.y_m,
-        )
-    };
-    for (seg, k) in world.segs.iter_mut() {
-        if *k == bent {
-            *seg = Segment::new(turn(seg.a), turn(seg.b));
-        }
-    }
+    let world = tunnel_with_landmark_3_bent();
     // 1.6 m short of the bent landmark, the next one 9 m ahead.
     let truth = Pose2::new(19.0, 0.2, 0.01);
     let guess = Pose2::new(19.01, 0.21, 0.011);
@@ -412,27 +392,7 @@ fn a_bent_landmark_does_not_draw_the_match_along() {
 #[test]
 fn a_match_stopped_with_a_bent_landmark_in_it_does_not_claim_millimetres() {
     let map = BruteMap::tunnel(true);
-    let mut world = BruteMap::tunnel(true);
-    let bent = FeatureKind::Landmark { id: 3 };
-    let root = world
-        .segs
-        .iter()
-        .find(|(_, k)| *k == bent)
-        .map(|(s, _)| s.a)
-        .unwrap();
-    let (s, c) = 10f32.to_radians().sin_cos();
-    for (seg, k) in world.segs.iter_mut() {
-        if *k == bent {
-            let turn = |p: Point2| {
-                let d = p.sub(root);
-                Point2::new(
-                    root.x_m + c * d.x_m - s * d.y_m,
-                    root.y_m + s * d.x_m + c * d.y_m,
-                )
-            };
-            *seg = Segment::new(turn(seg.a), turn(seg.b));
-        }
-    }
+    let world = tunnel_with_landmark_3_bent();
     let truth = Pose2::new(19.0, 0.2, 0.01);
     let guess = Pose2::new(19.04, 0.21, 0.011);
     let mut worst = 0.0f32;
@@ -456,6 +416,32 @@ fn a_match_stopped_with_a_bent_landmark_in_it_does_not_claim_millimetres() {
         }
     }
     assert!(worst < 3.0, "worst along error {worst} σ");
+}
+
+/// The test tunnel with landmark 3 bent 10° about its start.
+fn tunnel_with_landmark_3_bent() -> BruteMap {
+    let mut world = BruteMap::tunnel(true);
+    let bent = FeatureKind::Landmark { id: 3 };
+    let root = world
+        .segs
+        .iter()
+        .find(|(_, k)| *k == bent)
+        .map(|(s, _)| s.a)
+        .unwrap();
+    let (s, c) = 10f32.to_radians().sin_cos();
+    let turn = |p: Point2| {
+        let d = p.sub(root);
+        Point2::new(
+            root.x_m + c * d.x_m - s * d.y_m,
+            root.y_m + s * d.x_m + c * d.y_m,
+        )
+    };
+    for (seg, k) in world.segs.iter_mut() {
+        if *k == bent {
+            *seg = Segment::new(turn(seg.a), turn(seg.b));
+        }
+    }
+    world
 }
 
 /// What a localiser matches of `world`'s scan at `truth` (1 cm range noise, `seed`):
