@@ -535,4 +535,10 @@ fn landmark_offsets_are_learnt_on_rough_walls_only() {
     assert!(early >= 1, "nothing learnt in the first 0.4 m");
     assert!(late >= 2, "{late} landmarks learnt over 3 m");
     assert_eq!(drive(LocalizerConfig::default()), (0, 0));
+    // A scan whose matching spends the whole work budget leaves the reading to the next
+    // (a match at the cap and a reading on one scan are the controller's worst case):
+    // with every match at the cap nothing is read.
+    let mut capped = rough;
+    capped.matching.max_work = 1;
+    assert_eq!(drive(capped), (0, 0));
 }

@@ -444,8 +444,8 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             &mut self.workspace,
         );
         observer.end(Stage::Match);
-        let result = match matched {
-            Ok(r) => r.result,
+        let (result, match_work) = match matched {
+            Ok(r) => (r.result, r.work),
             Err(e) => {
                 self.last_match = None;
                 self.last_integrity = None;
@@ -457,8 +457,12 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         observer.begin(Stage::Update);
         let updated = ekf.update_with_match(&result, &cfg.update);
         self.last_wall_end_fixes = 0;
-        // Not while relocalising: the pose kept meanwhile may be the wrong one.
-        if updated.is_ok() && !self.relocalising {
+        // Not while relocalising: the pose kept meanwhile may be the wrong one. Nor on a scan
+        // whose matching spent its whole work budget: a match at the cap and a reading
+        // (≈ 45 k instructions) on one scan are the controller's worst case, ≈ 1.5 M; the
+        // reading waits for the next scan.
+        let budget_spent = match_work >= cfg.matching.max_work;
+        if updated.is_ok() && !self.relocalising && !budget_spent {
             // What this scan says of its landmarks' offsets, for the matches to come.
             self.workspace.learn_landmark_offsets(
                 self.map,
