@@ -394,9 +394,13 @@ mod tests {
         }
 
         fn scan(&mut self, clusters: u8, explained: u8) -> bool {
+            self.observe(scan(clusters, explained))
+        }
+
+        fn observe(&mut self, integrity: Integrity) -> bool {
             self.odometer_m += 0.04;
             self.monitor
-                .observe(&scan(clusters, explained), self.odometer_m, &self.config)
+                .observe(&integrity, self.odometer_m, &self.config)
         }
     }
 
@@ -527,18 +531,14 @@ mod tests {
             clusters_explained: explained,
             ..Integrity::default()
         };
-        let mut observe = |i: Integrity| {
-            d.odometer_m += 0.04;
-            d.monitor.observe(&i, d.odometer_m, &d.config)
-        };
         for _ in 0..50 {
-            assert!(observe(bare(2, 2)));
+            assert!(d.observe(bare(2, 2)));
         }
         // Two of three bumps on a wall, one off it: trusted.
-        assert!(observe(bare(3, 2)));
+        assert!(d.observe(bare(3, 2)));
         // Two scans of bumps mostly off the walls: neither trusted, the map still is.
-        assert!(!observe(bare(3, 1)) && !observe(bare(3, 1)));
-        assert!(observe(bare(3, 2)));
+        assert!(!d.observe(bare(3, 1)) && !d.observe(bare(3, 1)));
+        assert!(d.observe(bare(3, 2)));
     }
 
     /// Clusters a wall alone explains (bumps, to the map) do not outweigh those nothing
@@ -556,19 +556,15 @@ mod tests {
             map_has_landmarks: true,
             ..Integrity::default()
         };
-        let mut observe = |i: Integrity| {
-            d.odometer_m += 0.04;
-            d.monitor.observe(&i, d.odometer_m, &d.config)
-        };
         // 4 of 7 explained, 3 of them by a wall alone: not trusted.
-        assert!(!observe(on_walls(7, 4, 1)));
+        assert!(!d.observe(on_walls(7, 4, 1)));
         // Every cluster explained, one by a wall alone: trusted.
-        assert!(observe(on_walls(3, 3, 2)));
+        assert!(d.observe(on_walls(3, 3, 2)));
         // One unexplained: on landmarks, one is not enough, two are.
-        assert!(!observe(on_walls(3, 2, 1)));
-        assert!(observe(on_walls(4, 3, 2)));
+        assert!(!d.observe(on_walls(3, 2, 1)));
+        assert!(d.observe(on_walls(4, 3, 2)));
         // Half on landmarks, half unexplained: not trusted.
-        assert!(!observe(on_walls(4, 2, 2)));
+        assert!(!d.observe(on_walls(4, 2, 2)));
     }
 
     /// A match that ran out of work is trusted only where it fits whole: the first scan
@@ -584,17 +580,13 @@ mod tests {
             match_stopped_short: true,
             ..scan(clusters, explained)
         };
-        let mut observe = |i: Integrity| {
-            d.odometer_m += 0.04;
-            d.monitor.observe(&i, d.odometer_m, &d.config)
-        };
-        assert!(!observe(stopped(4, 3)));
-        assert!(observe(stopped(4, 4)));
+        assert!(!d.observe(stopped(4, 3)));
+        assert!(d.observe(stopped(4, 4)));
         // Converged, one damaged landmark among four passes as before.
-        assert!(observe(scan(4, 3)));
+        assert!(d.observe(scan(4, 3)));
         // It is no sign of a jump: the map keeps its trust.
-        assert!(!observe(stopped(4, 3)));
-        assert!(observe(scan(4, 4)));
+        assert!(!d.observe(stopped(4, 3)));
+        assert!(d.observe(scan(4, 4)));
     }
 
     #[test]
