@@ -25,6 +25,7 @@ pub mod lidar;
 pub mod map_export;
 pub mod mcap_out;
 pub mod metrics;
+pub mod noise_spread;
 pub mod odometry_gaps;
 pub mod optimize;
 pub mod output;

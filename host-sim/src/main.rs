@@ -91,6 +91,10 @@ enum Command {
     /// the vehicle moved 5-50 m where its odometry does not see), each run scored against
     /// the truth: metres to tracking, wrong locks.
     Relocalise(RelocaliseArgs),
+    /// One scan's match error split into the walls' part and the range noise's: the vehicle
+    /// at fixed poses, scanned again and again with fresh noise, each scan matched from the
+    /// true pose; beside them the Cramér–Rao bound with and without the walls' roughness.
+    Spread(SpreadArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -280,6 +284,25 @@ struct RelocaliseArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Args)]
+struct SpreadArgs {
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Chainages of the poses, metres (the drive's lateral offset, heading along the centre
+    /// line); e.g. `--at 30 50 70`.
+    #[arg(long, num_args = 1.., required = true)]
+    at: Vec<f64>,
+    /// Scans per pose, each with fresh range noise.
+    #[arg(long, default_value_t = 30)]
+    draws: u32,
+    /// Seed of the scanner's noise (the scenario's --seed draws the walls).
+    #[arg(long, default_value_t = 1)]
+    noise_seed: u64,
+    /// Print the study as JSON instead of the table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -872,6 +895,28 @@ fn cmd_run(a: &RunArgs) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+fn cmd_spread(a: &SpreadArgs) -> Result<(), String> {
+    use host_sim::noise_spread::{run_spread, SpreadSpec};
+    let s = load_scenario(&a.scenario)?;
+    if a.draws < 2 {
+        return Err("--draws must be at least 2 (a spread needs two scans)".into());
+    }
+    if let Some(bad) = a.at.iter().find(|c| !c.is_finite()) {
+        return Err(format!("--at {bad}: chainages must be finite metres"));
+    }
+    let spec = SpreadSpec {
+        chainages_m: a.at.clone(),
+        draws: a.draws,
+        seed: a.noise_seed,
+    };
+    let study = run_spread(&s, &spec).map_err(|e| e.to_string())?;
+    if a.json {
+        out(&serde_json::to_string_pretty(&study).map_err(|e| e.to_string())?)
+    } else {
+        out(&study.report())
+    }
 }
 
 fn cmd_relocalise(a: &RelocaliseArgs) -> Result<(), String> {
@@ -1770,6 +1815,7 @@ fn main() -> ExitCode {
         Command::Design(a) => cmd_design(a),
         Command::Survey(a) => survey_cli::cmd_survey(a),
         Command::Relocalise(a) => cmd_relocalise(a),
+        Command::Spread(a) => cmd_spread(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -48,6 +48,13 @@ impl<'m> ScanBound<'m> {
         }
     }
 
+    /// The same bound with smooth walls in the model: what the range noise alone leaves
+    /// (the walls' roughness counted as known).
+    pub fn noise_only(mut self) -> Self {
+        self.matching.roughness = loc_core::matching::RoughnessModel::SMOOTH;
+        self
+    }
+
     /// The bound (covariance of `(x_m, y_m, theta_rad)`, world frame) of `scan` taken at
     /// `truth`; `None` when the scan cannot be loaded or leaves a direction unobserved.
     pub fn at(&mut self, scan: &LidarScan, truth: SimPose) -> Option<Matrix3<f64>> {
@@ -89,6 +96,16 @@ pub struct BoundSummary {
     pub heading_ratio: f64,
 }
 
+/// The variances along and across a tunnel heading `heading_rad` (world frame) of the
+/// position block of covariance `b` (`(x_m, y_m, theta_rad)`, world frame), m².
+pub fn along_across_variances(b: &Matrix3<f64>, heading_rad: f64) -> (f64, f64) {
+    let (sn, cs) = heading_rad.sin_cos();
+    (
+        cs * cs * b[(0, 0)] + 2.0 * cs * sn * b[(0, 1)] + sn * sn * b[(1, 1)],
+        sn * sn * b[(0, 0)] - 2.0 * cs * sn * b[(0, 1)] + cs * cs * b[(1, 1)],
+    )
+}
+
 /// Summarises `bounds[i]` (the bound of sample `i`'s scan) against the samples' errors.
 pub fn summarise(
     line: &CenterLine,
@@ -106,8 +123,7 @@ pub fn summarise(
         let along_e = cs * ex + sn * ey;
         let across_e = -sn * ex + cs * ey;
         let head_e = wrap_pi(s.estimate.theta_rad - s.truth.theta_rad);
-        let var_along = cs * cs * b[(0, 0)] + 2.0 * cs * sn * b[(0, 1)] + sn * sn * b[(1, 1)];
-        let var_across = sn * sn * b[(0, 0)] - 2.0 * cs * sn * b[(0, 1)] + cs * cs * b[(1, 1)];
+        let (var_along, var_across) = along_across_variances(b, heading);
         let terms = [
             b[(0, 0)] + b[(1, 1)],
             var_along,
