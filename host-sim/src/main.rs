@@ -300,6 +300,10 @@ struct SpreadArgs {
     /// Seed of the scanner's noise (the scenario's --seed draws the walls).
     #[arg(long, default_value_t = 1)]
     noise_seed: u64,
+    /// Scan smooth walls (the map's) with the localiser's roughness model kept: the
+    /// estimator's own noise propagation, without the rough walls in its decisions.
+    #[arg(long)]
+    smooth_walls: bool,
     /// Print the study as JSON instead of the table.
     #[arg(long)]
     json: bool,
@@ -910,6 +914,7 @@ fn cmd_spread(a: &SpreadArgs) -> Result<(), String> {
         chainages_m: a.at.clone(),
         draws: a.draws,
         seed: a.noise_seed,
+        smooth_walls: a.smooth_walls,
     };
     let study = run_spread(&s, &spec).map_err(|e| e.to_string())?;
     if a.json {

@@ -43,6 +43,10 @@ pub struct SpreadSpec {
     pub draws: u32,
     /// Seed of the scanner's noise (the scenario's seed draws the walls).
     pub seed: u64,
+    /// Scan walls that are exactly the map's (no roughness) while the localiser keeps the
+    /// scenario's roughness model: what the estimator itself makes of the noise, without
+    /// the rough walls' part in its decisions (labels, trimming, weights).
+    pub smooth_walls: bool,
 }
 
 /// Mean and standard deviation of one error component over a pose's draws.
@@ -116,6 +120,8 @@ pub struct PoseSpread {
 pub struct SpreadStudy {
     /// Scenario name.
     pub scenario: String,
+    /// Whether the scanned walls were smooth ([`SpreadSpec::smooth_walls`]).
+    pub smooth_walls: bool,
     /// Scans per pose.
     pub draws: u32,
     /// Every pose with at least two matched draws.
@@ -134,8 +140,14 @@ impl SpreadStudy {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "{}: the match from the true pose, {} scans per pose with fresh range noise",
-            self.scenario, self.draws
+            "{}: the match from the true pose, {} scans per pose with fresh range noise{}",
+            self.scenario,
+            self.draws,
+            if self.smooth_walls {
+                " (walls scanned smooth, the roughness model kept)"
+            } else {
+                ""
+            }
         );
         let _ = writeln!(
             s,
@@ -187,7 +199,13 @@ impl SpreadStudy {
 /// Runs the study on `scenario` (its seed draws the walls and landmarks).
 pub fn run_spread(scenario: &Scenario, spec: &SpreadSpec) -> Result<SpreadStudy, SimError> {
     scenario.validate()?;
-    let world = scenario.build_world()?;
+    let world = if spec.smooth_walls {
+        let mut smooth = scenario.clone();
+        smooth.tunnel.roughness_sigma_m = 0.0;
+        smooth.build_world()?
+    } else {
+        scenario.build_world()?
+    };
     let map = stored_map::build(&world, &scenario.landmark_choice()?).map_err(SimError::Map)?;
     let line = scenario.centerline()?;
     let cfg = localizer_config(scenario);
@@ -267,6 +285,7 @@ pub fn run_spread(scenario: &Scenario, spec: &SpreadSpec) -> Result<SpreadStudy,
     }
     Ok(SpreadStudy {
         scenario: scenario.name.clone(),
+        smooth_walls: spec.smooth_walls,
         draws: spec.draws,
         poses,
     })
@@ -278,14 +297,12 @@ mod tests {
     use crate::scenario::named::named;
 
     fn study(smooth: bool) -> SpreadStudy {
-        let mut s = named("paper-10m").unwrap();
-        if smooth {
-            s.tunnel.roughness_sigma_m = 0.0;
-        }
+        let s = named("paper-10m").unwrap();
         let spec = SpreadSpec {
             chainages_m: vec![3.0, 6.0],
             draws: 6,
             seed: 1,
+            smooth_walls: smooth,
         };
         run_spread(&s, &spec).unwrap()
     }
