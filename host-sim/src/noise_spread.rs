@@ -225,8 +225,11 @@ pub fn run_spread(scenario: &Scenario, spec: &SpreadSpec) -> Result<SpreadStudy,
         let (mut along, mut across, mut head) = (Vec::new(), Vec::new(), Vec::new());
         let (mut b_model, mut b_noise) = (None, None);
         for draw in 0..spec.draws {
-            let noise_seed =
-                spec.seed.wrapping_mul(1_000_003) + (pose_index as u64) * 100_000 + u64::from(draw);
+            let noise_seed = spec
+                .seed
+                .wrapping_mul(1_000_003)
+                .wrapping_add((pose_index as u64).wrapping_mul(100_000))
+                .wrapping_add(u64::from(draw));
             let taken =
                 Lms511::new(scenario.lidar, noise_seed).scan(world.grid(), (x, y, heading), 0.0);
             if draw == 0 {
@@ -330,6 +333,14 @@ mod tests {
         })
         .unwrap();
         assert!(bias < 3.0, "smooth walls bias {bias:.2} sd");
+        // Rough walls: the walls' part shows.
+        let walls = |st: &SpreadStudy| rms(&st.poses, |p| Some(p.across_mm.mean)).unwrap();
+        assert!(
+            walls(&rough) > walls(&smooth),
+            "{} vs {}",
+            walls(&rough),
+            walls(&smooth)
+        );
         let report = rough.report();
         assert!(report.contains("RMS over the poses"), "{report}");
     }
