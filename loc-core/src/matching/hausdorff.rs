@@ -245,11 +245,17 @@ pub(super) fn run<M: MapQuery>(
         }
         pose = apply_step(*best_pose, &step);
     }
-    if misfits.is_none() && explained_m > 0.0 && !Misfits::find(assoc, explained_m).is_empty() {
+    let stopped_with_misfit =
+        misfits.is_none() && explained_m > 0.0 && !Misfits::find(assoc, explained_m).is_empty();
+    // Left out, but the work ran out before the match converged again: it stopped on its
+    // way back from where the misfits had drawn it, and its last steps (small, the
+    // misfit-free optimum still far) do not say how far that is.
+    let stopped_returning = !converged && misfits.as_ref().is_some_and(|m| !m.is_empty());
+    if stopped_with_misfit || stopped_returning {
         // Stopped before its optimum with a landmark not as mapped in it (the check runs at
-        // the optimum): as above.
+        // the optimum), or before its optimum without it: as above.
         if let Some((best_pose, _, _)) = best.as_ref() {
-            misfit_pull_m = pose_distance_m(&initial, best_pose, config);
+            misfit_pull_m = math::max(misfit_pull_m, pose_distance_m(&initial, best_pose, config));
         }
     }
     let mut outcome = conclude(
