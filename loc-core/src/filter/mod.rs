@@ -33,7 +33,9 @@ mod update;
 
 pub use coast::{CoastNoise, CoastRejection};
 pub use predict::{OdometryIncrement, OdometryNoise, OdometryRejection};
-pub use update::{GateProbability, UpdateConfig, UpdateRejection, UpdateReport};
+pub use update::{
+    shared_error_scans, GateProbability, UpdateConfig, UpdateRejection, UpdateReport,
+};
 
 use core::fmt;
 

@@ -332,3 +332,59 @@ fn a_fix_along_moves_the_position_and_the_scale_not_the_heading() {
         assert_eq!(bad, before);
     }
 }
+
+#[test]
+fn scans_share_an_error_by_how_far_apart_they_are() {
+    // At rest, or with no correlation length: the cap, or nothing shared.
+    assert_eq!(shared_error_scans(0.0, 0.8, 64.0), 64.0);
+    assert_eq!(shared_error_scans(0.1, 0.0, 64.0), 1.0);
+    assert_eq!(shared_error_scans(f32::NAN, 0.8, 64.0), 1.0);
+    assert_eq!(shared_error_scans(0.0, 0.8, 0.5), 1.0);
+    // coth(d / 2L): 4 cm apart on walls correlated over 1 m share an error 50 times over…
+    let near = shared_error_scans(0.04, 1.0, 1000.0);
+    assert!(
+        (near - 1.0 / libm::tanhf(0.02)).abs() < 0.05 * near,
+        "{near}"
+    );
+    // …scans metres apart hardly at all.
+    let far = shared_error_scans(5.0, 1.0, 64.0);
+    assert!((1.0..1.02).contains(&far), "{far}");
+}
+
+/// A vehicle at rest matched again and again: the walls' share of the matches' error
+/// across the tunnel is the same in every scan, so the filter's variance across does not
+/// fall as if each match were new; along (here x) and heading it is the update it was.
+#[test]
+fn matches_sharing_their_error_do_not_average_it_away_across() {
+    let start = diag(1e-2, 1e-2, 1e-4);
+    let info = diag(1.0 / 9e-6, 1.0 / 9e-6, 1.0 / 1e-8); // 3 mm, 0.1 mrad
+    let run = |shared: f32| {
+        let mut ekf = Ekf::new(Pose2::IDENTITY, start).unwrap();
+        for _ in 0..50 {
+            ekf.update_shared(
+                Pose2::IDENTITY,
+                &info,
+                None,
+                &obs(),
+                &UpdateConfig::default(),
+                shared,
+            )
+            .unwrap();
+        }
+        ekf.covariance()
+    };
+    let (independent, shared) = (run(1.0), run(64.0));
+    assert!(independent[(1, 1)].sqrt() < 1.0e-3, "{independent}");
+    assert!(shared[(1, 1)].sqrt() > 3.0e-3, "{shared}");
+    assert!((shared[(0, 0)] - independent[(0, 0)]).abs() < 1e-3 * independent[(0, 0)]);
+    assert!((shared[(2, 2)] - independent[(2, 2)]).abs() < 1e-2 * independent[(2, 2)]);
+    // Counted once, the update is `update`'s.
+    let mut a = Ekf::new(Pose2::IDENTITY, start).unwrap();
+    let mut b = a;
+    let m = Pose2::new(0.001, 0.002, 0.0001);
+    a.update(m, &info, None, &obs(), &UpdateConfig::default())
+        .unwrap();
+    b.update_shared(m, &info, None, &obs(), &UpdateConfig::default(), 1.0)
+        .unwrap();
+    assert_eq!(a, b);
+}

@@ -70,15 +70,23 @@ pub struct UpdateConfig {
     /// fix is taken when it improves on what the filter knows, and the filter's variance
     /// never drops below `1 / (1 + ratio)` of the best match's.
     pub weak_refix_ratio: f32,
+    /// At most this many scans' worth of the walls' share of a match's error across the
+    /// tunnel is counted as one scan's (≥ 1; 1: every match independent). Successive
+    /// matches see the same stretch of rough wall, so their errors across it are shared:
+    /// [`shared_error_scans`] says how many scans share it at the vehicle's travel between
+    /// them, and the match's variance across is counted that many times over. The cap is
+    /// what a vehicle at rest, whose scans share everything, is held to.
+    pub max_shared_scans: f32,
 }
 
 impl UpdateConfig {
     /// The defaults (what [`Default`] gives), usable in `const` and `static` items.
-    /// Gate at 0.1 %, 5 mm measurement floor.
+    /// Gate at 0.1 %, 5 mm measurement floor, at most 64 scans sharing an error.
     pub const DEFAULT: Self = Self {
         gate: GateProbability::P999,
         min_measurement_sd_m: 0.005,
         weak_refix_ratio: 0.5,
+        max_shared_scans: 64.0,
     };
 }
 
@@ -140,6 +148,29 @@ impl fmt::Display for UpdateRejection {
     }
 }
 
+/// How many scans' worth of independent error one match's shared error is, when
+/// successive matches are `travel_m` apart and the error decorrelates over `correlation_m`
+/// of travel (the walls' roughness, a Gauss–Markov process along them): `coth(d / 2L)`,
+/// the factor by which the variance of a mean of such errors exceeds that of as many
+/// independent ones (`(1 + ρ) / (1 − ρ)`, `ρ = e^(−d/L)`), at least 1 and at most `max`
+/// (also for a vehicle at rest, or no correlation to speak of: `correlation_m` ≤ 0).
+pub fn shared_error_scans(travel_m: f32, correlation_m: f32, max: f32) -> f32 {
+    let max = if max.is_finite() {
+        math::max(max, 1.0)
+    } else {
+        1.0
+    };
+    if correlation_m.is_nan() || correlation_m <= 0.0 || !travel_m.is_finite() {
+        return 1.0;
+    }
+    let rho = math::exp(-math::max(travel_m, 0.0) / correlation_m);
+    let denominator = 1.0 - rho;
+    if denominator <= (1.0 + rho) / max {
+        return max;
+    }
+    math::max((1.0 + rho) / denominator, 1.0)
+}
+
 /// `I − Σ e·eᵀ` over the held directions of travel (world frame; orthonormalised, the
 /// heading and scale untouched), `None` when nothing is held.
 fn hold_projection(directions: [Option<Point2>; 2]) -> Option<Matrix4<f32>> {
@@ -164,11 +195,15 @@ fn hold_projection(directions: [Option<Point2>; 2]) -> Option<Matrix4<f32>> {
 impl Ekf {
     /// Updates with a match result: its pose and information, observed as the matcher
     /// judged ([`MatchResult::observability`]); a match cut short adds its
-    /// [`MatchResult::unconverged_sd_m`] to the measurement floor.
+    /// [`MatchResult::unconverged_sd_m`] to the measurement floor. `shared_scans` (≥ 1,
+    /// [`shared_error_scans`], at most [`UpdateConfig::max_shared_scans`]) is how many
+    /// successive scans share this match's error across the tunnel (the direction across
+    /// the filter's heading): its variance across is counted that many times over.
     pub fn update_with_match(
         &mut self,
         result: &MatchResult,
         config: &UpdateConfig,
+        shared_scans: f32,
     ) -> Result<UpdateReport, UpdateRejection> {
         let d = &result.degeneracy;
         let hold = d.degenerate.then_some(d.direction_world);
@@ -177,12 +212,18 @@ impl Ekf {
             min_measurement_sd_m: math::hypot(config.min_measurement_sd_m, result.unconverged_sd_m),
             ..*config
         };
-        self.update(
+        let shared_scans = if shared_scans.is_finite() {
+            shared_scans.clamp(1.0, math::max(config.max_shared_scans, 1.0))
+        } else {
+            1.0
+        };
+        self.update_shared(
             result.pose,
             &result.information,
             hold,
             &result.observability,
             &config,
+            shared_scans,
         )
     }
 
@@ -209,6 +250,27 @@ impl Ekf {
         unobserved_direction: Option<Point2>,
         observability: &Observability,
         config: &UpdateConfig,
+    ) -> Result<UpdateReport, UpdateRejection> {
+        self.update_shared(
+            measured,
+            information,
+            unobserved_direction,
+            observability,
+            config,
+            1.0,
+        )
+    }
+
+    /// [`Ekf::update`] with the measurement's variance across the tunnel counted
+    /// `shared_scans` (≥ 1) times over (see [`Ekf::update_with_match`]).
+    pub(super) fn update_shared(
+        &mut self,
+        measured: Pose2,
+        information: &Matrix3<f32>,
+        unobserved_direction: Option<Point2>,
+        observability: &Observability,
+        config: &UpdateConfig,
+        shared_scans: f32,
     ) -> Result<UpdateReport, UpdateRejection> {
         if !measured.is_finite() || !information.iter().all(|v| v.is_finite()) {
             return Err(UpdateRejection::NonFinite);
@@ -254,7 +316,33 @@ impl Ekf {
                 *r = 1.0 / lambda + floor_sq;
             }
         }
-        let r = Matrix3::from_diagonal(&r_diag);
+        let mut r = Matrix3::from_diagonal(&r_diag);
+        if shared_scans > 1.0 {
+            // The match's variance across the tunnel, `nᵀ·C·n` with `C = Σ b·bᵀ / λ` over the
+            // observed directions, added `shared_scans − 1` times more along `n` (in the
+            // measurement's coordinates, `Vᵀ·n`).
+            let n = Vector3::new(
+                -math::sin(self.pose.theta_rad),
+                math::cos(self.pose.theta_rad),
+                0.0,
+            );
+            let mut n_measured = Vector3::zeros();
+            let mut across_m2 = 0.0f32;
+            for (k, (b, lambda)) in obs
+                .scaled_basis
+                .column_iter()
+                .zip(obs.eigenvalues.iter())
+                .enumerate()
+                .take(obs.rank)
+            {
+                let c = b.dot(&n);
+                if let Some(e) = n_measured.get_mut(k) {
+                    *e = c;
+                }
+                across_m2 += c * c / lambda;
+            }
+            r += n_measured * n_measured.transpose() * ((shared_scans - 1.0) * across_m2);
+        }
         let error = Vector3::new(
             measured.x_m - self.pose.x_m,
             measured.y_m - self.pose.y_m,

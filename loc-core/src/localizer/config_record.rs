@@ -4,7 +4,7 @@
 //! noise — everything [`LocalizerConfig`] holds, so the controller localises as the host
 //! tools do for the same vehicle.
 //!
-//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (9), reserved
+//! Layout: a 16-byte header, little-endian — magic `LCCF`, format version u16 (10), reserved
 //! u16 (0), payload length u32, CRC-32 (IEEE) of the payload u32 — then the payload, the
 //! `postcard` encoding of [`LocalizerConfig`] (at most [`CONFIG_RECORD_MAX_BYTES`] in all).
 //! Erased flash or zeros read as [`ConfigRecordError::NotPresent`]; bytes after the record
@@ -17,7 +17,8 @@ use crate::crc::crc32;
 
 /// The record's magic.
 pub const CONFIG_MAGIC: [u8; 4] = *b"LCCF";
-/// The format version this crate writes and reads (9: the sweep's de-skew,
+/// The format version this crate writes and reads (10: the matches' shared error across
+/// the walls, `UpdateConfig::max_shared_scans`; 9: the sweep's de-skew,
 /// `LocalizerConfig::deskew`; 8: the landmark points' budget,
 /// `LocalizerConfig::max_landmark_points`; 7: the roughness model's correlation
 /// length, `RoughnessModel::correlation_m`, where 6 held a patch length; 6: weakly observed
@@ -25,7 +26,7 @@ pub const CONFIG_MAGIC: [u8; 4] = *b"LCCF";
 /// and no wall range limit; 5 added the wall-end observation's configuration,
 /// `LocalizerConfig::wall_end`; 4 added the protection level's, 3 the
 /// relocaliser's, 2 the matcher's work budget; older records lack them and are refused).
-pub const CONFIG_FORMAT_VERSION: u16 = 9;
+pub const CONFIG_FORMAT_VERSION: u16 = 10;
 /// Bytes of the header.
 const HEADER_BYTES: usize = 16;
 /// Upper bound on a whole record, bytes.
@@ -123,6 +124,8 @@ impl LocalizerConfig {
             ]
             .into_iter()
             .all(non_negative)
+            && self.update.max_shared_scans >= 1.0
+            && self.update.max_shared_scans.is_finite()
             && self.relocalise.is_usable()
             && self.wall_end.is_usable()
             && self.protection.is_usable()
@@ -243,9 +246,10 @@ mod tests {
         );
         // A NaN noise, or a weak direction's ratio or threshold that compares as nothing,
         // behind a valid CRC: refused.
-        let spoilers: [fn(&mut LocalizerConfig); 3] = [
+        let spoilers: [fn(&mut LocalizerConfig); 4] = [
             |c| c.matching.range_noise_sigma_m = f32::NAN,
             |c| c.update.weak_refix_ratio = f32::NAN,
+            |c| c.update.max_shared_scans = 0.5,
             |c| c.matching.min_information_points = 0.0,
         ];
         for spoil in spoilers {

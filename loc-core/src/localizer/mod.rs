@@ -54,7 +54,9 @@ pub use sweep_speed::{SweepSpeed, MAX_SWEEP_BASELINE_S, SWEEP_SPEED_BASELINE_S};
 
 use nalgebra::Matrix3;
 
-use crate::filter::{CoastRejection, Ekf, FilterInitError, OdometryIncrement, OdometryRejection};
+use crate::filter::{
+    shared_error_scans, CoastRejection, Ekf, FilterInitError, OdometryIncrement, OdometryRejection,
+};
 use crate::geometry::Pose2;
 use crate::map::MapQuery;
 use crate::matching::{
@@ -84,6 +86,10 @@ pub struct Localizer<'m, M: MapQuery> {
     integrity_monitor: IntegrityMonitor,
     /// Distance driven by the predictions so far, metres (for the integrity monitor).
     odometer_m: f32,
+    /// The odometer at the filter's last accepted match: how far apart successive matches
+    /// are, and so how much of their error across the walls they share (`None`: no match
+    /// since the pose was set).
+    last_match_odometer_m: Option<f32>,
     /// Searching the map for the vehicle (see the module docs).
     relocalising: bool,
     relocaliser: Relocaliser,
@@ -135,6 +141,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             wall_end_memory: WallEndMemory::NEW,
             integrity_monitor: IntegrityMonitor::NEW,
             odometer_m: 0.0,
+            last_match_odometer_m: None,
             relocalising: false,
             relocaliser: Relocaliser::NEW,
             doubtful_since_m: None,
@@ -179,6 +186,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.last_match = None;
         self.last_integrity = None;
         self.doubtful_since_m = None;
+        self.last_match_odometer_m = None;
         self.gate_failures = 0;
         self.gate_failures_in_row = 0;
         self.sweep_speed.reset();
@@ -208,6 +216,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             self.config.odometry.scale_sd,
         )?);
         self.status = Status::DeadReckoning;
+        self.last_match_odometer_m = None;
         self.workspace.forget_landmarks();
         self.integrity_monitor = IntegrityMonitor::default();
         self.relocalising = false;
@@ -455,7 +464,20 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         self.last_match = Some(result);
 
         observer.begin(Stage::Update);
-        let updated = ekf.update_with_match(&result, &cfg.update);
+        // Matches a short way apart see the same stretch of rough wall: their errors across
+        // it are shared over the roughness's correlation length (smooth walls: none).
+        let shared_scans = match self.last_match_odometer_m {
+            Some(at_m) if cfg.matching.roughness.sigma_m > 0.0 => shared_error_scans(
+                self.odometer_m - at_m,
+                cfg.matching.roughness.correlation_m,
+                cfg.update.max_shared_scans,
+            ),
+            _ => 1.0,
+        };
+        let updated = ekf.update_with_match(&result, &cfg.update, shared_scans);
+        if updated.is_ok() {
+            self.last_match_odometer_m = Some(self.odometer_m);
+        }
         self.last_wall_end_fixes = 0;
         // Not while relocalising: the pose kept meanwhile may be the wrong one. Nor on a scan
         // whose matching spent its whole work budget: a match at the cap and a reading
@@ -550,6 +572,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
             let cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(sp * sp, sp * sp, st * st));
             if let Ok(ekf) = Ekf::with_scale(lock.pose, cov, self.config.odometry.scale_sd) {
                 self.ekf = Some(ekf);
+                self.last_match_odometer_m = None;
                 self.sweep_speed.reset();
                 self.workspace.forget_landmarks();
             }
