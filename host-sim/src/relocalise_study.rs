@@ -22,6 +22,8 @@ use crate::metrics::ProtectionSummary;
 use crate::scenario::Scenario;
 use crate::session::SimError;
 use crate::stored_map;
+use crate::world::World;
+use loc_core::map::TunnelMap;
 
 /// A scan reported tracking farther than this from the truth is at a wrong place, metres
 /// (a wrong placement is a landmark spacing, ≈ 10 m, off; tracking errors are millimetres).
@@ -247,27 +249,7 @@ pub fn run_study(
         };
         let mut s = scenario.clone();
         s.seed = scenario.seed.wrapping_add(u64::from(i));
-        s.drive.start_m = start_m;
-        s.drive.end_m = start_m + before + spec.drive_m + jump_m.max(0.0);
-        let mut est = LocCoreEstimator::new(&map, &s);
-        if !spec.kidnap {
-            est = est.without_initial_pose();
-        }
-        let teleports = [Teleport {
-            at_distance_m: before,
-            jump_m,
-        }];
-        let options = RunOptions {
-            teleports: if spec.kidnap { &teleports } else { &[] },
-            ..RunOptions::default()
-        };
-        let log = closed_loop::run(&s, &world, &mut est, &options);
-        runs.push(outcome(
-            &log,
-            start_m,
-            jump_m,
-            spec.kidnap.then_some(before),
-        ));
+        runs.push(run_one(&s, &world, &map, spec, start_m, jump_m));
         if let Some(p) = progress {
             p(f64::from(i + 1) / f64::from(spec.runs.max(1)));
         }
@@ -281,6 +263,41 @@ pub fn run_study(
         },
         runs,
     })
+}
+
+/// One run of a study: `scenario` (its seed the run's own) driven from chainage `start_m`
+/// in `world` against `map`, kidnapped by `jump_m` after [`StudySpec::kidnap_after_m`] when
+/// `spec` says so.
+pub fn run_one(
+    scenario: &Scenario,
+    world: &World,
+    map: &TunnelMap,
+    spec: &StudySpec,
+    start_m: f64,
+    jump_m: f64,
+) -> RunOutcome {
+    let before = if spec.kidnap {
+        spec.kidnap_after_m
+    } else {
+        0.0
+    };
+    let mut s = scenario.clone();
+    s.drive.start_m = start_m;
+    s.drive.end_m = start_m + before + spec.drive_m + jump_m.max(0.0);
+    let mut est = LocCoreEstimator::new(map, &s);
+    if !spec.kidnap {
+        est = est.without_initial_pose();
+    }
+    let teleports = [Teleport {
+        at_distance_m: before,
+        jump_m,
+    }];
+    let options = RunOptions {
+        teleports: if spec.kidnap { &teleports } else { &[] },
+        ..RunOptions::default()
+    };
+    let log = closed_loop::run(&s, world, &mut est, &options);
+    outcome(&log, start_m, jump_m, spec.kidnap.then_some(before))
 }
 
 /// Scores one run (`kidnapped_at_m`: the distance of the kidnapping, for those runs).

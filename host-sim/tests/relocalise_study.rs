@@ -4,7 +4,7 @@
 //! place within 30 m, none may ever report tracking at a wrong one, and every kidnapping
 //! must be noticed.
 
-use host_sim::relocalise_study::{run_study, StudySpec};
+use host_sim::relocalise_study::{run_one, run_study, StudySpec};
 use host_sim::scenario::named::named;
 use host_sim::scenario::overrides::Overrides;
 
@@ -131,4 +131,37 @@ fn kidnappings_to_look_alike_landmarks_are_never_reported_tracking_there() {
         );
         assert_eq!(r.tracked(), runs as usize, "{}", r.report());
     }
+}
+
+/// A kidnapping the filter's gate refuses once, after which the match slides onto a
+/// look-alike stretch of landmarks and fits there (`relocalise --scenario tunnel-1km
+/// --kidnap --drive 80 --study-seed 2`, run 44: 28.9 m back). One refused match is already
+/// the sign of a jump: that scan was reported tracking 28.9 m off while a second refusal
+/// was awaited.
+#[test]
+fn one_refused_match_is_enough_to_doubt_the_map() {
+    let scenario = named("tunnel-1km").expect("named scenario");
+    let world = scenario.build_world().expect("world");
+    let choice = scenario.landmark_choice().expect("landmarks");
+    let map = host_sim::stored_map::build(&world, &choice).expect("map");
+    let mut run = scenario.clone();
+    run.seed = scenario.seed.wrapping_add(44);
+    let spec = StudySpec {
+        runs: 1,
+        drive_m: 80.0,
+        kidnap: true,
+        seed: 2,
+        ..StudySpec::default()
+    };
+    let r = run_one(
+        &run,
+        &world,
+        &map,
+        &spec,
+        210.890_464_782_644_36,
+        -28.907_430_171_966_553,
+    );
+    assert!(r.detected, "{r:?}");
+    assert_eq!(r.wrong_lock_scans, 0, "{}", r.timeline);
+    assert!(r.timeline.contains("rejected:gate"), "{}", r.timeline);
 }
