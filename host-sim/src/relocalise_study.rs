@@ -46,6 +46,17 @@ pub struct StudySpec {
     pub seed: u64,
 }
 
+impl StudySpec {
+    /// Metres a run drives before its kidnapping (0 for power-up runs).
+    pub fn driven_before_kidnap_m(&self) -> f64 {
+        if self.kidnap {
+            self.kidnap_after_m
+        } else {
+            0.0
+        }
+    }
+}
+
 impl Default for StudySpec {
     fn default() -> Self {
         Self {
@@ -220,11 +231,7 @@ pub fn run_study(
     let choice = scenario.landmark_choice()?;
     let map = stored_map::build(&world, &choice).map_err(SimError::Map)?;
     let length = world.centerline().length_m();
-    let before = if spec.kidnap {
-        spec.kidnap_after_m
-    } else {
-        0.0
-    };
+    let before = spec.driven_before_kidnap_m();
     // Room for the drive, and for the longest jump either way.
     let margin = if spec.kidnap {
         spec.jump_range_m.1
@@ -276,11 +283,7 @@ pub fn run_one(
     start_m: f64,
     jump_m: f64,
 ) -> RunOutcome {
-    let before = if spec.kidnap {
-        spec.kidnap_after_m
-    } else {
-        0.0
-    };
+    let before = spec.driven_before_kidnap_m();
     let mut s = scenario.clone();
     s.drive.start_m = start_m;
     s.drive.end_m = start_m + before + spec.drive_m + jump_m.max(0.0);
