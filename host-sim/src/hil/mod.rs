@@ -94,7 +94,7 @@ impl fmt::Display for HilError {
             HilError::Io(e) => write!(f, "HIL link: {e}"),
             HilError::NoPose { scan, log } => write!(
                 f,
-                "the firmware sent no pose for scan {scan} in time (its log, raw defmt: {})",
+                "the firmware sent no pose for scan {scan} in time (its log, raw defmt: {}); a controller built with FW_CONTROLLER_SCANS=N stops after N scans (the firmware's tests build one): rebuild the product with `cd firmware && cargo build --release --bin controller`",
                 log.display()
             ),
         }

@@ -25,11 +25,14 @@
 //! outnumber them: a cluster a wall alone explains is a bump of the wall to the map and
 //! counts for neither side (half a scan's landmarks fitting is what the first scan after
 //! a jump of a few spacings can show). A jump the odometry did not see (a tow, a slide)
-//! shows first as a scan whose two or more landmarks mostly misfit; where the map's
-//! landmarks look alike a few spacings away, the scans after it fit in part, scan by
-//! scan, while the running share is still high. So after such a scan only one whose two
-//! or more landmarks all fit is trusted, and a second misfit before it costs the map's
-//! trust at once. One damaged landmark among others in view does neither. Both rules
+//! shows first as a scan whose two or more landmarks mostly misfit — or, where the spacing
+//! is uneven and the jump about one spacing, as a scan in which the match leaves out a
+//! landmark it found plainly fitting a scan before while the others still fit
+//! (`matching::misfit`). Where the map's landmarks look alike a few spacings away, the
+//! scans after it fit in part, scan by scan, while the running share is still high. So
+//! after such a scan only one whose two or more landmarks all fit is trusted, and a second
+//! misfit before it costs the map's trust at once. One damaged landmark among others in
+//! view does neither (it misfits from when it is first seen well enough). Both rules
 //! apply on a map with landmarks only: on a bare one every cluster is a bump of the wall,
 //! a person or dust.
 //!
@@ -124,6 +127,10 @@ pub struct Integrity {
     /// for the distance still to go beyond the measurement floor): the pose judged is where
     /// it stopped.
     pub match_stopped_short: bool,
+    /// Landmarks the match left out that the match before it found plainly fitting
+    /// ([`crate::matching::MatchResult::landmarks_stopped_fitting`]): on a map with
+    /// landmarks, such a scan is judged as one whose landmarks mostly misfit.
+    pub landmarks_stopped_fitting: u8,
 }
 
 /// A run of landmark points being gathered: points, points checked against the map, of
@@ -312,11 +319,15 @@ impl IntegrityMonitor {
         let scan_ok =
             integrity.clusters == 0 || (mostly_explained && landmarks_outnumber && settled);
         // Two or more landmarks mostly misfitting (on a map with landmarks: in a bare tunnel
-        // they are bumps of the wall, people, dust): the first sign of a jump. A second such
+        // they are bumps of the wall, people, dust), or a landmark that fitted plainly a
+        // scan ago left out by the match: the first sign of a jump (where the spacing is
+        // uneven, a jump of about one spacing leaves the others fitting). A second such
         // scan before one that fits whole costs the map's trust at once, not after the
         // running share has fallen (≈ 16 scans, in which a look-alike stretch of landmarks
         // can fit in part); until then, only a scan that fits whole is trusted.
-        let misfit = integrity.map_has_landmarks && integrity.clusters >= 2 && !mostly_explained;
+        let misfit = integrity.map_has_landmarks
+            && ((integrity.clusters >= 2 && !mostly_explained)
+                || integrity.landmarks_stopped_fitting > 0);
         let fits_whole = integrity.clusters >= 2 && unexplained == 0;
         let held = self.misfit_pending && !fits_whole;
         let second_misfit = misfit && self.misfit_pending;
@@ -326,7 +337,7 @@ impl IntegrityMonitor {
                 self.distrusted = true;
                 self.confirm_from_m = None;
             }
-            return !self.distrusted && scan_ok && !held;
+            return !self.distrusted && scan_ok && !misfit && !held;
         }
         let fits = integrity.clusters >= 2
             && f32::from(integrity.clusters_explained)
@@ -490,6 +501,44 @@ mod tests {
         let before = d.monitor.recent_fraction();
         assert!(d.scan(0, 0));
         assert_eq!(d.monitor.recent_fraction(), before);
+    }
+
+    /// A kidnapping by about one landmark spacing where the spacing is uneven: the scan
+    /// after the jump fits in the main, but the match left out a landmark it had kept a
+    /// scan before. That scan is not trusted, nor any after it until one fits whole, and a
+    /// second such scan before that costs the map's trust.
+    #[test]
+    fn a_landmark_that_stops_fitting_is_the_sign_of_a_jump() {
+        let stopped = |clusters, explained| Integrity {
+            landmarks_stopped_fitting: 1,
+            ..scan(clusters, explained)
+        };
+        let mut d = Drive::new();
+        for _ in 0..50 {
+            assert!(d.scan(4, 4));
+        }
+        assert!(!d.observe(stopped(4, 3)));
+        assert!(d.monitor.is_trusted());
+        assert!(!d.scan(4, 3));
+        assert!(!d.observe(stopped(4, 3)));
+        assert!(!d.monitor.is_trusted());
+        // One that stops fitting between whole fits (a person passing a landmark) costs
+        // that scan only.
+        let mut d = Drive::new();
+        for _ in 0..50 {
+            assert!(d.scan(4, 4));
+        }
+        assert!(!d.observe(stopped(4, 4)));
+        assert!(d.scan(4, 4));
+        assert!(d.monitor.is_trusted());
+        // A bare map has no landmarks to stop fitting: nothing changes.
+        let mut d = Drive::new();
+        let bare = |i: Integrity| Integrity {
+            map_has_landmarks: false,
+            ..i
+        };
+        assert!(d.observe(bare(scan(2, 2))));
+        assert!(d.observe(bare(stopped(2, 2))));
     }
 
     /// A kidnapping: the first scan after the jump misfits; the next ones fit in part where

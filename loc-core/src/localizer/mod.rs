@@ -530,6 +530,7 @@ impl<'m, M: MapQuery> Localizer<'m, M> {
         // tracked (part of the update stage).
         let integrity = Integrity {
             match_stopped_short: result.unconverged_sd_m > cfg.update.min_measurement_sd_m,
+            landmarks_stopped_fitting: result.landmarks_stopped_fitting,
             ..Integrity::check(self.map, points, labels, result.pose, &cfg.integrity)
         };
         self.last_integrity = Some(integrity);
@@ -774,8 +775,8 @@ mod tests {
         let scan = core::mem::size_of::<Scan>();
         let workspace = core::mem::size_of::<MatchWorkspace>();
         // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB, the landmark
-        // offsets (24 slots of 20 bytes and two counts), the landmark gate (32 bytes) and
-        // its memory (8 ids and a count).
+        // offsets (24 slots of 20 bytes and two counts), the landmark gate (32 bytes), its
+        // memory (8 ids and a count) and the landmarks fitted last (16 ids and a count).
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
         let offsets = LANDMARK_OFFSET_SLOTS * 20 + 8;
@@ -787,8 +788,10 @@ mod tests {
             memory,
             GATE_MEMORY_SLOTS * 2 + core::mem::size_of::<usize>()
         );
+        // The landmarks the last match found plainly fitting: 16 ids and a count.
+        let fitted = 16 * 2 + core::mem::size_of::<usize>();
         // (and the padding that aligns them)
-        let parts = 512 * 56 + 512 * 8 + 4 + offsets + gate + memory;
+        let parts = 512 * 56 + 512 * 8 + 4 + offsets + gate + memory + fitted;
         assert!(
             (parts..parts + 8).contains(&workspace),
             "{workspace} for {parts}"

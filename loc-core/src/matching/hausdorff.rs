@@ -31,6 +31,7 @@ pub(super) fn run<M: MapQuery>(
         landmark_offsets: offsets,
         landmark_gate: gate,
         gate_memory,
+        fitted_landmarks,
         ..
     } = workspace;
     let m = points.len().min(assoc.len());
@@ -245,12 +246,19 @@ pub(super) fn run<M: MapQuery>(
         }
         pose = apply_step(*best_pose, &step);
     }
-    let stopped_with_misfit =
-        misfits.is_none() && explained_m > 0.0 && !Misfits::find(assoc, explained_m).is_empty();
+    // Judged at the optimum, or (never reached) where the match stopped.
+    let misfits_unjudged = misfits.is_none();
+    let judged = match misfits {
+        Some(m) => Some(m),
+        None if explained_m > 0.0 => Some(Misfits::find(assoc, explained_m)),
+        None => None,
+    };
+    let left_out = judged.as_ref().map_or(0, Misfits::len);
+    let stopped_with_misfit = misfits_unjudged && left_out > 0;
     // Left out, but the work ran out before the match converged again: it stopped on its
     // way back from where the misfits had drawn it, and its last steps (small, the
     // misfit-free optimum still far) do not say how far that is.
-    let stopped_returning = !converged && misfits.as_ref().is_some_and(|m| !m.is_empty());
+    let stopped_returning = !converged && !misfits_unjudged && left_out > 0;
     if stopped_with_misfit || stopped_returning {
         // Stopped before its optimum with a landmark not as mapped in it (the check runs at
         // the optimum), or before its optimum without it: as above.
@@ -268,6 +276,12 @@ pub(super) fn run<M: MapQuery>(
         config,
     )?;
     outcome.unconverged_sd_m = math::hypot(outcome.unconverged_sd_m, misfit_pull_m);
+    outcome.landmarks_left_out = u8::try_from(left_out).unwrap_or(u8::MAX);
+    if let Some(j) = judged.as_ref() {
+        let stopped_fitting = fitted_landmarks.count_in(j);
+        outcome.landmarks_stopped_fitting = u8::try_from(stopped_fitting).unwrap_or(u8::MAX);
+        *fitted_landmarks = j.fitted().clone();
+    }
     Ok(outcome)
 }
 

@@ -111,6 +111,7 @@ pub use wall_end::{
 };
 
 use core::fmt;
+use misfit::FittedLandmarks;
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -336,6 +337,16 @@ pub struct MatchResult {
     /// and the filter adds it to the measurement noise of every observed direction, so a
     /// match cut short is trusted only as far as it got.
     pub unconverged_sd_m: f32,
+    /// Map landmarks the match found not as mapped and left out (or, with no work left to
+    /// converge without them, would have): their points misfit at the optimum (`misfit`) or
+    /// their own correction disagreed with the prediction (`landmark_gate`). 0 for the ICP
+    /// matcher, which judges no landmark.
+    pub landmarks_left_out: u8,
+    /// Of those, the landmarks the previous match with the same workspace judged and kept
+    /// (see `misfit::FittedLandmarks`): a landmark that fitted one scan and misfits the
+    /// next is the sign of a jump, where a damaged one misfits from its first sighting.
+    /// 0 for the ICP matcher.
+    pub landmarks_stopped_fitting: u8,
     /// Final cost, metres: the trimmed mean or K-th distance (Hausdorff), RMS residual (ICP).
     pub cost_m: f32,
     /// Points used in the final estimate.
@@ -418,6 +429,8 @@ pub struct MatchWorkspace {
     landmark_gate: Option<LandmarkGate>,
     /// The landmarks the gate has left out since the pose was last set.
     gate_memory: GateMemory,
+    /// The landmarks the last Hausdorff match judged and kept.
+    fitted_landmarks: FittedLandmarks,
 }
 
 impl Default for MatchWorkspace {
@@ -445,6 +458,7 @@ impl MatchWorkspace {
             landmark_offsets: LandmarkOffsets::NEW,
             landmark_gate: None,
             gate_memory: GateMemory::NEW,
+            fitted_landmarks: FittedLandmarks::NEW,
         }
     }
 
@@ -484,6 +498,7 @@ impl MatchWorkspace {
     pub fn forget_landmarks(&mut self) {
         self.landmark_offsets.clear();
         self.gate_memory.clear();
+        self.fitted_landmarks.clear();
     }
 
     /// Judges the landmarks of the matches to come against a prediction (`None`: not):
@@ -560,6 +575,8 @@ pub(crate) struct Outcome {
     work: u32,
     unconverged_sd_m: f32,
     cost_m: f32,
+    landmarks_left_out: u8,
+    landmarks_stopped_fitting: u8,
 }
 
 /// How a matcher loop ends: its last accepted `(pose, cost, equations)` becomes the
@@ -602,6 +619,8 @@ pub(crate) fn conclude(
         work,
         unconverged_sd_m: if converged { 0.0 } else { steps.remaining_m() },
         cost_m,
+        landmarks_left_out: 0,
+        landmarks_stopped_fitting: 0,
     })
 }
 
@@ -654,6 +673,8 @@ fn finish(o: Outcome, config: &MatchConfig) -> MatchResult {
         work: o.work,
         unconverged_sd_m: o.unconverged_sd_m,
         cost_m: o.cost_m,
+        landmarks_left_out: o.landmarks_left_out,
+        landmarks_stopped_fitting: o.landmarks_stopped_fitting,
         inliers: crate::math::saturating_u16(o.equations.count),
         degeneracy: degeneracy(&information, threshold, config.rotation_scale_m),
         observability: config.observability(),
