@@ -776,7 +776,8 @@ mod tests {
         let workspace = core::mem::size_of::<MatchWorkspace>();
         // Module docs: ≈ 38 KiB; Scan ≈ 32 KiB; MatchWorkspace 32 KiB, the landmark
         // offsets (24 slots of 20 bytes and two counts), the landmark gate (32 bytes), its
-        // memory (8 ids and a count) and the landmarks fitted last (16 ids and a count).
+        // memory (8 ids and a count) and the landmarks fitted in the last scan and this one
+        // (16 ids and a count each).
         assert!((37 * 1024..40 * 1024).contains(&localizer), "{localizer}");
         assert!((31 * 1024..34 * 1024).contains(&scan), "{scan}");
         let offsets = LANDMARK_OFFSET_SLOTS * 20 + 8;
@@ -788,8 +789,9 @@ mod tests {
             memory,
             GATE_MEMORY_SLOTS * 2 + core::mem::size_of::<usize>()
         );
-        // The landmarks the last match found plainly fitting: 16 ids and a count.
-        let fitted = 16 * 2 + core::mem::size_of::<usize>();
+        // The landmarks the last scan's and this scan's matches found plainly fitting: 16
+        // ids and a count each.
+        let fitted = 2 * (16 * 2 + core::mem::size_of::<usize>());
         // (and the padding that aligns them)
         let parts = 512 * 56 + 512 * 8 + 4 + offsets + gate + memory + fitted;
         assert!(

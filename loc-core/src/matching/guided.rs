@@ -127,7 +127,7 @@ pub fn match_scan_with_prealign<M: MapQuery, P: VehiclePoint>(
     config: &MatchConfig,
     workspace: &mut MatchWorkspace,
 ) -> Result<GuidedMatch, MatchError> {
-    workspace.reset_work();
+    workspace.begin_scan();
     // Each match gets what the earlier ones left of the scan's budget.
     let match_scan =
         |points: &[Point2], start: Pose2, config: &MatchConfig, workspace: &mut MatchWorkspace| {

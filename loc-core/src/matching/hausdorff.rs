@@ -278,9 +278,8 @@ pub(super) fn run<M: MapQuery>(
     outcome.unconverged_sd_m = math::hypot(outcome.unconverged_sd_m, misfit_pull_m);
     outcome.landmarks_left_out = u8::try_from(left_out).unwrap_or(u8::MAX);
     if let Some(j) = judged.as_ref() {
-        let stopped_fitting = fitted_landmarks.count_in(j);
+        let stopped_fitting = fitted_landmarks.record(j);
         outcome.landmarks_stopped_fitting = u8::try_from(stopped_fitting).unwrap_or(u8::MAX);
-        *fitted_landmarks = j.fitted().clone();
     }
     Ok(outcome)
 }

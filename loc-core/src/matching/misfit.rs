@@ -54,15 +54,7 @@ pub struct Misfits {
 }
 
 /// The landmarks a match found plainly fitting (many points, hardly any beyond the
-/// explained distance), map ids: the next match compares its misfits with them
-/// ([`FittedLandmarks::count_in`]).
-///
-/// A landmark as mapped fits scan after scan; one bent or moved misfits from when it is
-/// first seen well enough to judge. One that fitted in the last match and misfits in this
-/// one is the sign of a jump the odometry did not see: after a kidnapping of one landmark
-/// spacing less 0.43 m on `tunnel-1km` (landmarks spaced 9–9.5 m, not evenly), two of
-/// the four landmarks in view still fitted within 5 cm at the old pose, and only the
-/// nearest, which had fitted a scan earlier, did not.
+/// explained distance), map ids.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct FittedLandmarks {
     ids: heapless::Vec<u16, MAX_JUDGED>,
@@ -82,10 +74,49 @@ impl FittedLandmarks {
             .filter(|id| self.ids.contains(id))
             .count()
     }
+}
 
-    /// Forgets them all (a new pose: the next match has nothing to compare with).
+/// What the last scan's match found plainly fitting, against which each match of this scan
+/// counts the landmarks it leaves out ([`FittedMemory::record`]).
+///
+/// A landmark as mapped fits scan after scan; one bent or moved misfits from when it is
+/// first seen well enough to judge. One that fitted in the last scan and misfits in this
+/// one is the sign of a jump the odometry did not see: after a kidnapping of one landmark
+/// spacing less 0.43 m on `tunnel-1km` (landmarks spaced 9–9.5 m, not evenly), two of
+/// the four landmarks in view still fitted within 5 cm at the old pose, and only the
+/// nearest, which had fitted a scan earlier, did not.
+///
+/// A scan may run several matches (the coarse pull-in, the final one: see `guided`); the
+/// last one that succeeds is the scan's. A scan without one leaves the next nothing to
+/// compare with.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FittedMemory {
+    last_scan: FittedLandmarks,
+    this_scan: FittedLandmarks,
+}
+
+impl FittedMemory {
+    /// Nothing remembered (what [`Default`] gives), usable in `const` items.
+    pub const NEW: Self = Self {
+        last_scan: FittedLandmarks::NEW,
+        this_scan: FittedLandmarks::NEW,
+    };
+
+    /// A new scan: what the one before found fitting is what its matches compare with.
+    pub fn begin_scan(&mut self) {
+        self.last_scan = core::mem::take(&mut self.this_scan);
+    }
+
+    /// A match of this scan judged `misfits`: keeps what it found fitting and returns how
+    /// many of the landmarks it left out the last scan's match found fitting.
+    pub fn record(&mut self, misfits: &Misfits) -> usize {
+        self.this_scan = misfits.fitted.clone();
+        self.last_scan.count_in(misfits)
+    }
+
+    /// Forgets both scans (a new pose: the next match has nothing to compare with).
     pub fn clear(&mut self) {
-        self.ids.clear();
+        *self = Self::NEW;
     }
 }
 
@@ -122,11 +153,6 @@ impl Misfits {
             }
         }
         out
-    }
-
-    /// The landmarks found plainly fitting (every one left out since excluded).
-    pub fn fitted(&self) -> &FittedLandmarks {
-        &self.fitted
     }
 
     /// How many landmarks are left out.
@@ -224,18 +250,30 @@ mod tests {
         }
         let before = Misfits::find(&fitting, 0.022);
         assert!(before.is_empty());
-        assert_eq!(before.fitted().ids.as_slice(), &[2]);
+        assert_eq!(before.fitted.ids.as_slice(), &[2]);
         let mut now = scan(10);
         for a in now.iter_mut().filter(|a| a.landmark() == Some(1)) {
             a.distance_m = 0.05;
         }
         let now = Misfits::find(&now, 0.022);
         assert_eq!(now.ids.as_slice(), &[1, 2]);
-        assert_eq!(before.fitted().count_in(&now), 1);
+        // Counted against the last scan's, not against an earlier match of the same scan.
+        let mut memory = FittedMemory::NEW;
+        memory.begin_scan();
+        assert_eq!(memory.record(&before), 0);
+        assert_eq!(memory.record(&now), 0);
+        memory.begin_scan();
+        assert_eq!(memory.record(&before), 0);
+        memory.begin_scan();
+        assert_eq!(memory.record(&now), 1);
+        // Nor after a scan without a match.
+        memory.begin_scan();
+        memory.begin_scan();
+        assert_eq!(memory.record(&now), 0);
         // Left out by the gate, a landmark is not fitted either.
         let mut gated = Misfits::find(&fitting, 0.022);
         gated.leave_out(2);
-        assert!(gated.fitted().ids.is_empty());
+        assert!(gated.fitted.ids.is_empty());
     }
 
     #[test]

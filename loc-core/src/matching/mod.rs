@@ -111,7 +111,7 @@ pub use wall_end::{
 };
 
 use core::fmt;
-use misfit::FittedLandmarks;
+use misfit::FittedMemory;
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -342,10 +342,12 @@ pub struct MatchResult {
     /// their own correction disagreed with the prediction (`landmark_gate`). 0 for the ICP
     /// matcher, which judges no landmark.
     pub landmarks_left_out: u8,
-    /// Of those, the landmarks the previous match with the same workspace judged and kept
-    /// (see `misfit::FittedLandmarks`): a landmark that fitted one scan and misfits the
-    /// next is the sign of a jump, where a damaged one misfits from its first sighting.
-    /// 0 for the ICP matcher.
+    /// Of those, the landmarks the last scan's match found plainly fitting (≥ 12 paired
+    /// points, ≤ 5 % of them beyond 2 σ; see `misfit::FittedMemory`): a landmark that fitted
+    /// one scan and misfits the next is the sign of a jump, where a damaged one misfits from
+    /// its first good sighting. Counted by matches run through [`match_scan_with_prealign`],
+    /// which marks where a scan begins ([`MatchWorkspace::begin_scan`]); 0 for the ICP
+    /// matcher.
     pub landmarks_stopped_fitting: u8,
     /// Final cost, metres: the trimmed mean or K-th distance (Hausdorff), RMS residual (ICP).
     pub cost_m: f32,
@@ -429,8 +431,8 @@ pub struct MatchWorkspace {
     landmark_gate: Option<LandmarkGate>,
     /// The landmarks the gate has left out since the pose was last set.
     gate_memory: GateMemory,
-    /// The landmarks the last Hausdorff match judged and kept.
-    fitted_landmarks: FittedLandmarks,
+    /// The landmarks the last scan's and this scan's Hausdorff matches found plainly fitting.
+    fitted_landmarks: FittedMemory,
 }
 
 impl Default for MatchWorkspace {
@@ -458,7 +460,7 @@ impl MatchWorkspace {
             landmark_offsets: LandmarkOffsets::NEW,
             landmark_gate: None,
             gate_memory: GateMemory::NEW,
-            fitted_landmarks: FittedLandmarks::NEW,
+            fitted_landmarks: FittedMemory::NEW,
         }
     }
 
@@ -470,6 +472,14 @@ impl MatchWorkspace {
     /// Starts counting the work again from zero.
     pub fn reset_work(&mut self) {
         self.work = 0;
+    }
+
+    /// A new scan: the work counted from zero, and the landmarks the last scan's match
+    /// found plainly fitting kept for this scan's matches to compare their misfits with
+    /// ([`MatchResult::landmarks_stopped_fitting`]). [`match_scan_with_prealign`] calls it.
+    pub fn begin_scan(&mut self) {
+        self.reset_work();
+        self.fitted_landmarks.begin_scan();
     }
 
     /// What has been learnt of the landmarks' offsets.
