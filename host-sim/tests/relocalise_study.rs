@@ -4,7 +4,7 @@
 //! place within 30 m, none may ever report tracking at a wrong one, and every kidnapping
 //! must be noticed.
 
-use host_sim::relocalise_study::{run_one, run_study, StudySpec};
+use host_sim::relocalise_study::{run_one, run_study, RunOutcome, StudySpec};
 use host_sim::scenario::named::named;
 use host_sim::scenario::overrides::Overrides;
 
@@ -140,12 +140,21 @@ fn kidnappings_to_look_alike_landmarks_are_never_reported_tracking_there() {
 /// was awaited.
 #[test]
 fn one_refused_match_is_enough_to_doubt_the_map() {
+    let r = study_seed_2_run(44, 210.890_464_782_644_36, -28.907_430_171_966_553);
+    assert!(r.detected, "{r:?}");
+    assert_eq!(r.wrong_lock_scans, 0, "{}", r.timeline);
+    assert!(r.timeline.contains("rejected:gate"), "{}", r.timeline);
+}
+
+/// Run `run_index` of `relocalise --scenario tunnel-1km --kidnap --drive 80 --study-seed 2`
+/// (its start and jump as the study drew them).
+fn study_seed_2_run(run_index: u64, start_m: f64, jump_m: f64) -> RunOutcome {
     let scenario = named("tunnel-1km").expect("named scenario");
     let world = scenario.build_world().expect("world");
     let choice = scenario.landmark_choice().expect("landmarks");
     let map = host_sim::stored_map::build(&world, &choice).expect("map");
     let mut run = scenario.clone();
-    run.seed = scenario.seed.wrapping_add(44);
+    run.seed = scenario.seed.wrapping_add(run_index);
     let spec = StudySpec {
         runs: 1,
         drive_m: 80.0,
@@ -153,17 +162,7 @@ fn one_refused_match_is_enough_to_doubt_the_map() {
         seed: 2,
         ..StudySpec::default()
     };
-    let r = run_one(
-        &run,
-        &world,
-        &map,
-        &spec,
-        210.890_464_782_644_36,
-        -28.907_430_171_966_553,
-    );
-    assert!(r.detected, "{r:?}");
-    assert_eq!(r.wrong_lock_scans, 0, "{}", r.timeline);
-    assert!(r.timeline.contains("rejected:gate"), "{}", r.timeline);
+    run_one(&run, &world, &map, &spec, start_m, jump_m)
 }
 
 /// Kidnappings of about one landmark spacing (`relocalise --scenario tunnel-1km --kidnap
@@ -175,24 +174,11 @@ fn one_refused_match_is_enough_to_doubt_the_map() {
 /// compared with the last match's (`MatchResult::landmarks_stopped_fitting`).
 #[test]
 fn a_landmark_that_stops_fitting_after_a_jump_is_noticed() {
-    let scenario = named("tunnel-1km").expect("named scenario");
-    let world = scenario.build_world().expect("world");
-    let choice = scenario.landmark_choice().expect("landmarks");
-    let map = host_sim::stored_map::build(&world, &choice).expect("map");
-    let spec = StudySpec {
-        runs: 1,
-        drive_m: 80.0,
-        kidnap: true,
-        seed: 2,
-        ..StudySpec::default()
-    };
     for (run_index, start_m, jump_m) in [
         (17, 293.298_273_086_440_1, 9.073_610_305_786_133),
         (52, 653.354_578_017_917_9, 9.297_539_889_812_47),
     ] {
-        let mut run = scenario.clone();
-        run.seed = scenario.seed.wrapping_add(run_index);
-        let r = run_one(&run, &world, &map, &spec, start_m, jump_m);
+        let r = study_seed_2_run(run_index, start_m, jump_m);
         assert!(r.detected, "run {run_index}: {r:?}");
         assert_eq!(r.wrong_lock_scans, 0, "run {run_index}: {}", r.timeline);
         assert!(
