@@ -39,8 +39,10 @@ const MISFIT_FRACTION: f32 = 0.3;
 /// distance (as many as noise puts there) ...
 const FIT_FRACTION: f32 = 0.05;
 /// ... and it has at least this many paired points: a far landmark of a few points
-/// misfits now and then on an intact map, where a near one does not (`tunnel-1km`, the
-/// whole kilometre: 8 scans with 6 points or more, 1 with 12, 0.05 as the fraction).
+/// misfits now and then on an intact map, where a near one does not. On the whole
+/// kilometre of `tunnel-1km`, intact, a landmark that had fitted stopped fitting on 8
+/// scans counting every judged one (6 points or more, under 30 % beyond 2σ), on 5 with
+/// this fraction, on 1 with these points as well.
 const FIT_MIN_POINTS: u16 = 2 * MIN_POINTS;
 
 /// Per-landmark tally: `(map id, paired points, unexplained points)`.
