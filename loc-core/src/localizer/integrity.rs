@@ -11,7 +11,8 @@
 //! damaged one leaves its cluster unexplained, so the judgement weighs the recent scans
 //! ([`IntegrityMonitor`]: the running share of explained clusters over about
 //! `1 / window_weight` scans). The map is trusted from the first scan whose two or more
-//! landmarks all fit, until the share falls below `min_recent_fraction` or a second scan
+//! landmarks all fit (two of them on the map's landmarks: a lone landmark, or one beside a
+//! bump of the wall, fits a tooth off as well as right), until the share falls below `min_recent_fraction` or a second scan
 //! whose landmarks mostly misfit comes before one whose two or more all fit (below); then,
 //! and when that first scan does not fit whole, only again once the landmarks have fitted
 //! over `confirm_distance_m` driven: the scanner has then seen new landmarks, which a wrong
