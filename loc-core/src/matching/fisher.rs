@@ -44,7 +44,7 @@ impl ScanInformation {
 /// The information of `points` (vehicle frame) at `pose` (world frame) against `map`: each
 /// point within `gate_m` of map geometry adds its point-to-line Jacobian, wall stretches
 /// share their roughness offset (`config.roughness`) and a landmark's points the offset at
-/// its anchor (as the matchers take them: [`LandmarkAnchors`]), all in units of `config`'s
+/// its anchor (as the matchers take them: `landmark_offsets::LandmarkAnchors`), all in units of `config`'s
 /// range noise.
 pub fn scan_information<M: MapQuery, P: VehiclePoint>(
     map: &M,
