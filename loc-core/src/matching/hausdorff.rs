@@ -254,12 +254,11 @@ pub(super) fn run<M: MapQuery>(
         None => None,
     };
     let left_out = judged.as_ref().map_or(0, Misfits::len);
-    let stopped_with_misfit = misfits_unjudged && left_out > 0;
-    // Left out, but the work ran out before the match converged again: it stopped on its
-    // way back from where the misfits had drawn it, and its last steps (small, the
-    // misfit-free optimum still far) do not say how far that is.
-    let stopped_returning = !converged && !misfits_unjudged && left_out > 0;
-    if stopped_with_misfit || stopped_returning {
+    // A misfit never judged at an optimum, or one left out when the work ran out before
+    // the match converged again: it stopped on its way back from where the misfits had
+    // drawn it, and its last steps (small, the misfit-free optimum still far) do not say
+    // how far that is.
+    if left_out > 0 && (misfits_unjudged || !converged) {
         // Stopped before its optimum with a landmark not as mapped in it (the check runs at
         // the optimum), or before its optimum without it: as above.
         if let Some((best_pose, _, _)) = best.as_ref() {
